@@ -1,0 +1,1 @@
+//! Writing a scene as glTF 2.0 binary (.glb).

@@ -1,0 +1,406 @@
+//! The scene model: plain CPU data, no GPU types.
+//!
+//! Built-in procedural scenes and the glTF loader both produce a [`Scene`]. Geometry is stored in world
+//! space (node transforms are baked in at load time) because every technique in rtgi works on static
+//! geometry and the BVH wants world-space triangles anyway.
+//!
+//! Units: metres for lengths. Radiometric quantities are linear RGB:
+//! - emissive materials: emitted radiance (W·sr⁻¹·m⁻²), `KHR_materials_emissive_strength` folded in;
+//! - point and spot lights: radiant intensity (W·sr⁻¹), glTF's `intensity × color` taken as is;
+//! - directional lights: irradiance on a surface facing the light (W·m⁻²);
+//! - environment: radiance arriving from each direction.
+//!
+//! rtgi does no photometric conversion (no division by 683 lm/W): a glTF light of intensity 10 is
+//! 10 W·sr⁻¹ here. This keeps analytic tests exact and scenes portable between techniques.
+
+pub mod builtin;
+pub mod gltf_export;
+pub mod gltf_load;
+
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+/// A renderable scene.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub name: String,
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<Light>,
+    pub environment: Environment,
+    pub camera: Camera,
+    /// Features of the source file that rtgi read but does not render (e.g. a glTF extension that is
+    /// optional). Loaders report them here instead of dropping them silently; the CLI prints them.
+    pub warnings: Vec<String>,
+}
+
+/// A triangle mesh in world space. All attribute arrays have one entry per vertex.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Unit shading normals.
+    pub normals: Vec<Vec3>,
+    /// xyz: unit tangent along +u, w: handedness (±1); bitangent = w · cross(normal, tangent).
+    pub tangents: Vec<Vec4>,
+    pub uvs: Vec<Vec2>,
+    /// Three indices per triangle, counter-clockwise seen from the front.
+    pub indices: Vec<u32>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+/// glTF metallic-roughness material. Colours are linear.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGBA; alpha is coverage (used by [`AlphaMode::Mask`]).
+    pub base_color: Vec4,
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1]; GGX α = roughness².
+    pub roughness: f32,
+    /// glTF packing: roughness in G, metallic in B (multiplied with the factors above).
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Emitted radiance, linear RGB, emissive strength included.
+    pub emissive: Vec3,
+    pub emissive_texture: Option<TextureRef>,
+    /// Tangent-space normal map (glTF convention: +Y up, OpenGL style).
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+    pub alpha_mode: AlphaMode,
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: String::new(),
+            base_color: Vec4::ONE,
+            base_color_texture: None,
+            metallic: 0.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            emissive: Vec3::ZERO,
+            emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
+        }
+    }
+}
+
+impl Material {
+    /// A Lambertian (rough dielectric) material of the given linear albedo.
+    pub fn diffuse(name: &str, albedo: Vec3) -> Self {
+        Material { name: name.into(), base_color: albedo.extend(1.0), ..Default::default() }
+    }
+
+    /// A black surface that emits `radiance`.
+    pub fn emitter(name: &str, radiance: Vec3) -> Self {
+        Material {
+            name: name.into(),
+            base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            emissive: radiance,
+            ..Default::default()
+        }
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emissive.max_element() > 0.0
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    Opaque,
+    /// Fragments with alpha below the cutoff are discarded.
+    Mask {
+        cutoff: f32,
+    },
+    /// Read but rendered as opaque (rtgi has no transparency); loaders add a warning.
+    Blend,
+}
+
+/// A reference from a material to a texture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TextureRef {
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    /// Which UV set; rtgi meshes carry one, so loaders reject other sets with a warning.
+    pub tex_coord: u32,
+}
+
+impl TextureRef {
+    pub fn new(texture: u32) -> Self {
+        TextureRef { texture, tex_coord: 0 }
+    }
+}
+
+/// An 8-bit RGBA image. `srgb` says how the shader must decode it (base colour and emissive are sRGB;
+/// normal and metallic-roughness maps are linear).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// width × height × 4 bytes, rows top to bottom.
+    pub rgba8: Vec<u8>,
+    pub srgb: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Radiant intensity `intensity` (W/sr, linear RGB) in all directions.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Like a point light inside a cone around `direction`: full intensity within `inner_angle`,
+    /// smooth falloff to zero at `outer_angle` (half-angles in radians, glTF's smoothstep-free linear
+    /// falloff in cos space as in KHR_lights_punctual).
+    Spot { position: Vec3, direction: Vec3, intensity: Vec3, inner_angle: f32, outer_angle: f32 },
+    /// Light travelling along `direction` (unit vector, from the light towards the scene) giving
+    /// irradiance `irradiance` (W/m², linear RGB) on a surface facing it.
+    Directional { direction: Vec3, irradiance: Vec3 },
+}
+
+impl Light {
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Light::Point { .. } => "point",
+            Light::Spot { .. } => "spot",
+            Light::Directional { .. } => "directional",
+        }
+    }
+}
+
+/// Light arriving from infinitely far away.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub enum Environment {
+    /// Black.
+    #[default]
+    None,
+    /// The same radiance from every direction.
+    Uniform(Vec3),
+    /// A procedural clear sky (see `shaders/common/environment.wgsl` for the model): a zenith-to-horizon
+    /// gradient and a sun disc. `sun_direction` points from the scene towards the sun.
+    Sky { sun_direction: Vec3, sun_radiance: Vec3, sky_radiance: Vec3, ground_radiance: Vec3 },
+    /// An equirectangular (latitude–longitude) radiance map, +Y up; u = 0 at −Z, growing towards +X.
+    Map(EnvironmentMap),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvironmentMap {
+    pub path: String,
+    pub width: u32,
+    pub height: u32,
+    /// width × height linear RGB radiance values, rows top (zenith) to bottom.
+    pub rgb: Vec<f32>,
+    pub intensity: f32,
+}
+
+/// A perspective camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    pub znear: f32,
+    pub zfar: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera {
+            position: Vec3::new(0.0, 1.0, 3.0),
+            target: Vec3::new(0.0, 1.0, 0.0),
+            up: Vec3::Y,
+            yfov: 45f32.to_radians(),
+            znear: 0.01,
+            zfar: 1000.0,
+        }
+    }
+}
+
+impl Camera {
+    pub fn view(&self) -> Mat4 {
+        Mat4::look_at_rh(self.position, self.target, self.up)
+    }
+
+    /// Right-handed perspective with depth in [0, 1] (wgpu convention).
+    pub fn projection(&self, aspect: f32) -> Mat4 {
+        Mat4::perspective_rh(self.yfov, aspect, self.znear, self.zfar)
+    }
+
+    pub fn view_projection(&self, aspect: f32) -> Mat4 {
+        self.projection(aspect) * self.view()
+    }
+}
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn union(&self, o: &Aabb) -> Aabb {
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x
+    }
+
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+}
+
+impl Scene {
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len() / 3).sum()
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.positions.len()).sum()
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for m in &self.meshes {
+            for p in &m.positions {
+                b.grow(*p);
+            }
+        }
+        b
+    }
+
+    /// Checks the internal consistency that GPU upload relies on. Loaders and generators call it; a
+    /// failure is a bug in them (or a malformed file) and is reported, never uploaded.
+    pub fn validate(&self) -> Result<(), String> {
+        for (i, m) in self.meshes.iter().enumerate() {
+            let n = m.positions.len();
+            if m.normals.len() != n || m.tangents.len() != n || m.uvs.len() != n {
+                return Err(format!(
+                    "mesh {i} '{}': attribute counts differ (positions {n}, normals {}, tangents {}, uvs {})",
+                    m.name,
+                    m.normals.len(),
+                    m.tangents.len(),
+                    m.uvs.len()
+                ));
+            }
+            if m.indices.len() % 3 != 0 {
+                return Err(format!(
+                    "mesh {i} '{}': index count {} is not a multiple of 3",
+                    m.name,
+                    m.indices.len()
+                ));
+            }
+            if let Some(bad) = m.indices.iter().find(|&&ix| ix as usize >= n) {
+                return Err(format!("mesh {i} '{}': index {bad} out of range ({n} vertices)", m.name));
+            }
+            if m.material as usize >= self.materials.len() {
+                return Err(format!(
+                    "mesh {i} '{}': material {} out of range ({} materials)",
+                    m.name,
+                    m.material,
+                    self.materials.len()
+                ));
+            }
+            if m.positions.iter().any(|p| !p.is_finite()) {
+                return Err(format!("mesh {i} '{}': non-finite vertex position", m.name));
+            }
+        }
+        for (i, mat) in self.materials.iter().enumerate() {
+            for t in [
+                mat.base_color_texture,
+                mat.metallic_roughness_texture,
+                mat.emissive_texture,
+                mat.normal_texture,
+            ]
+            .into_iter()
+            .flatten()
+            {
+                if t.texture as usize >= self.textures.len() {
+                    return Err(format!("material {i} '{}': texture {} out of range", mat.name, t.texture));
+                }
+            }
+        }
+        for (i, t) in self.textures.iter().enumerate() {
+            if t.rgba8.len() != (t.width as usize) * (t.height as usize) * 4 || t.width == 0 || t.height == 0
+            {
+                return Err(format!(
+                    "texture {i} '{}': {}×{} does not match its data",
+                    t.name, t.width, t.height
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Mesh {
+    /// Builds a mesh from positions, normals, uvs and indices, computing tangents from the UV layout
+    /// (per-triangle tangents accumulated per vertex, then Gram–Schmidt orthogonalised).
+    pub fn with_generated_tangents(
+        name: &str,
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        uvs: Vec<Vec2>,
+        indices: Vec<u32>,
+        material: u32,
+    ) -> Mesh {
+        let tangents = generate_tangents(&positions, &normals, &uvs, &indices);
+        Mesh { name: name.into(), positions, normals, tangents, uvs, indices, material }
+    }
+}
+
+/// Per-vertex tangents from UVs. Degenerate UV layouts fall back to any vector perpendicular to the
+/// normal, so the result is always a unit tangent.
+pub fn generate_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], indices: &[u32]) -> Vec<Vec4> {
+    let n = positions.len();
+    let mut tan = vec![Vec3::ZERO; n];
+    let mut bit = vec![Vec3::ZERO; n];
+    for tri in indices.chunks_exact(3) {
+        let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+        let (e1, e2) = (positions[b] - positions[a], positions[c] - positions[a]);
+        let (d1, d2) = (uvs[b] - uvs[a], uvs[c] - uvs[a]);
+        let det = d1.x * d2.y - d2.x * d1.y;
+        if det.abs() < 1e-20 {
+            continue;
+        }
+        let r = 1.0 / det;
+        let t = (e1 * d2.y - e2 * d1.y) * r;
+        let bt = (e2 * d1.x - e1 * d2.x) * r;
+        for &v in &[a, b, c] {
+            tan[v] += t;
+            bit[v] += bt;
+        }
+    }
+    (0..n)
+        .map(|i| {
+            let nrm = normals[i];
+            let mut t = tan[i] - nrm * nrm.dot(tan[i]);
+            if t.length_squared() < 1e-20 {
+                t = nrm.any_orthonormal_vector();
+            }
+            let t = t.normalize();
+            let w = if nrm.cross(t).dot(bit[i]) < 0.0 { -1.0 } else { 1.0 };
+            t.extend(w)
+        })
+        .collect()
+}
