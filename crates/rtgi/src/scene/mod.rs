@@ -225,12 +225,12 @@ impl Default for Camera {
 
 impl Camera {
     pub fn view(&self) -> Mat4 {
-        Mat4::look_at_rh(self.position, self.target, self.up)
+        glam::camera::rh::view::look_at_mat4(self.position, self.target, self.up)
     }
 
-    /// Right-handed perspective with depth in [0, 1] (wgpu convention).
+    /// Right-handed perspective with depth in [0, 1] and NDC y up (the wgpu convention, glam's `directx`).
     pub fn projection(&self, aspect: f32) -> Mat4 {
-        Mat4::perspective_rh(self.yfov, aspect, self.znear, self.zfar)
+        glam::camera::rh::proj::directx::perspective(self.yfov, aspect, self.znear, self.zfar)
     }
 
     pub fn view_projection(&self, aspect: f32) -> Mat4 {

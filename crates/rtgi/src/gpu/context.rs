@@ -1,0 +1,136 @@
+//! Headless device creation.
+
+use serde::Serialize;
+
+/// Errors of the GPU layer.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error(
+        "no GPU adapter found (wgpu backends: {backends}). Install a Vulkan driver, e.g. on Debian: \
+         apt-get install -y mesa-vulkan-drivers libvulkan1"
+    )]
+    NoAdapter { backends: String },
+    #[error("could not create a device on '{adapter}': {message}")]
+    Device { adapter: String, message: String },
+    /// The scene or a resource is larger than the device allows; the message names the limit.
+    #[error("{0}")]
+    OverLimit(String),
+    #[error("GPU error: {0}")]
+    Other(String),
+}
+
+/// What rtgi reports about the adapter it runs on.
+#[derive(Clone, Debug, Serialize)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+}
+
+/// Options for [`GpuContext::new`].
+#[derive(Clone, Debug, Default)]
+pub struct GpuOptions {
+    /// Only consider adapters whose name contains this (case-insensitive).
+    pub adapter_filter: Option<String>,
+}
+
+/// The device every rtgi pass runs on.
+pub struct GpuContext {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub summary: AdapterSummary,
+    /// Timestamp queries inside command encoders are available (their values may still be wrong; see
+    /// [`crate::gpu::profiler`]).
+    pub has_timestamps: bool,
+}
+
+fn device_rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    }
+}
+
+impl GpuContext {
+    /// Creates a headless device: prefers a discrete GPU, falls back to integrated, virtual and CPU
+    /// adapters (lavapipe). `WGPU_BACKEND` selects backends (default: all that are compiled in).
+    pub fn new(options: &GpuOptions) -> Result<Self, GpuError> {
+        let descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        let backends = descriptor.backends;
+        let instance = wgpu::Instance::new(descriptor);
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
+        if let Some(filter) = &options.adapter_filter {
+            let f = filter.to_lowercase();
+            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&f));
+        }
+        // Vulkan before GL on the same device: GL lacks f16, texture atomics and float32 filtering.
+        adapters.sort_by_key(|a| {
+            let info = a.get_info();
+            (device_rank(info.device_type), u32::from(info.backend != wgpu::Backend::Vulkan))
+        });
+        let adapter = adapters
+            .into_iter()
+            .next()
+            .ok_or_else(|| GpuError::NoAdapter { backends: format!("{backends:?}") })?;
+        let info = adapter.get_info();
+        let summary = AdapterSummary {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend),
+            device_type: format!("{:?}", info.device_type),
+            driver: info.driver.clone(),
+            driver_info: info.driver_info.clone(),
+        };
+
+        let available = adapter.features();
+        let wanted = wgpu::Features::TIMESTAMP_QUERY
+            | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
+            | wgpu::Features::FLOAT32_FILTERABLE;
+        let features = available & wanted;
+        let has_timestamps = features
+            .contains(wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
+        // Ask for everything the adapter offers: scene buffers are bounded by
+        // max_storage_buffer_binding_size, which is far above the WebGPU default on every driver.
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("rtgi"),
+            required_features: features,
+            required_limits: limits,
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
+        Ok(GpuContext { adapter, device, queue, summary, has_timestamps })
+    }
+
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait_idle(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| GpuError::Other(format!("waiting for the device: {e}")))
+    }
+
+    /// Checks that a storage buffer of `bytes` fits the device, naming `what` in the error.
+    pub fn check_storage_size(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
+        let limit = u64::from(self.limits().max_storage_buffer_binding_size);
+        if bytes > limit {
+            return Err(GpuError::OverLimit(format!(
+                "{what} needs {:.1} MiB, over the device's max_storage_buffer_binding_size of {:.1} MiB",
+                bytes as f64 / 1048576.0,
+                limit as f64 / 1048576.0
+            )));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,6 @@
+//! GPU plumbing shared by every technique: device, resources, scene upload, BVH, timing, readback.
+
+pub mod context;
+pub mod readback;
+
+pub use context::{AdapterSummary, GpuContext, GpuError, GpuOptions};

@@ -1,0 +1,1 @@
+// placeholder: BVH traversal (owned by the BVH work)
