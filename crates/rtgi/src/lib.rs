@@ -1,11 +1,15 @@
 //! rtgi: a real-time global illumination laboratory.
 //!
-//! Headless first: a [`scene::Scene`] goes in, a linear HDR radiance image and statistics come out.
+//! Headless first: a [`scene::Scene`] goes in, a linear HDR radiance image and statistics come out
+//! ([`render::render`]).
 
 pub mod error;
 pub mod gpu;
+pub mod image;
 pub mod params;
+pub mod render;
 pub mod scene;
 pub mod shaders;
+pub mod techniques;
 
 pub use error::SceneError;
