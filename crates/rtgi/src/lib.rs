@@ -4,6 +4,7 @@
 //! ([`render::render`]).
 
 pub mod error;
+pub mod frame;
 pub mod gpu;
 pub mod image;
 pub mod params;

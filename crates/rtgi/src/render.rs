@@ -4,9 +4,13 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::gpu::{AdapterSummary, GpuContext, GpuError};
+use std::time::Instant;
+
+use crate::frame::{FrameResources, OUTPUT_FORMAT, ShadowSettings};
+use crate::gpu::{AdapterSummary, GpuContext, GpuError, GpuScene, Profiler, readback};
 use crate::image::HdrImage;
 use crate::scene::Scene;
+use crate::techniques::{self, FrameContext, TechniqueSetup};
 
 /// What to render.
 #[derive(Clone, Debug)]
@@ -78,13 +82,126 @@ pub struct RenderOutput {
 /// Progress of a render: `done` of `total` frames.
 pub type ProgressFn<'a> = dyn FnMut(u32, u32) + 'a;
 
-/// Renders `scene` as `settings` say.
+/// Renders `scene` as `settings` say: uploads the scene, builds the frame inputs and the technique, runs
+/// `settings.frames` frames and reads the radiance back.
 pub fn render(
     ctx: &GpuContext,
     scene: &Scene,
     settings: &RenderSettings,
     progress: &mut ProgressFn<'_>,
 ) -> Result<RenderOutput, RenderError> {
-    let _ = (ctx, scene, settings, progress);
-    Err(RenderError::InvalidSettings("the frame core is being wired up".into()))
+    let (info, params) =
+        techniques::resolve(&settings.technique, &settings.technique_settings).map_err(|e| {
+            if techniques::registry().iter().any(|t| t.name == settings.technique) {
+                RenderError::InvalidSettings(e)
+            } else {
+                RenderError::UnknownTechnique {
+                    name: settings.technique.clone(),
+                    available: techniques::registry().iter().map(|t| t.name).collect::<Vec<_>>().join(", "),
+                }
+            }
+        })?;
+    if settings.width == 0 || settings.height == 0 {
+        return Err(RenderError::InvalidSettings(format!(
+            "image size {}x{} is empty; width and height must be at least 1",
+            settings.width, settings.height
+        )));
+    }
+    if settings.frames == 0 {
+        return Err(RenderError::InvalidSettings("frames must be at least 1".into()));
+    }
+    let setup_start = Instant::now();
+    let (gpu_scene, mut frame, output, mut technique) =
+        ctx.checked("setting up the render", || setup(ctx, scene, settings, info, &params))??;
+    ctx.wait_idle()?;
+    let setup_ms = setup_start.elapsed().as_secs_f64() * 1e3;
+
+    let seed = params.get("seed").map_or(0, |_| params.int("seed") as u32);
+    let mut profiler = Profiler::new(ctx);
+    let start = Instant::now();
+    ctx.checked("rendering", || -> Result<(), RenderError> {
+        for frame_index in 0..settings.frames {
+            frame.begin_frame(ctx, frame_index, seed);
+            if info.needs.gbuffer {
+                frame.render_inputs(ctx, &gpu_scene, &mut profiler)?;
+            }
+            technique.render_frame(
+                &FrameContext { ctx, gpu_scene: &gpu_scene, frame: &frame, frame_index },
+                &mut profiler,
+            )?;
+            progress(frame_index + 1, settings.frames);
+        }
+        Ok(())
+    })??;
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let texels = readback::read_texture(ctx, &output, 16)?;
+    let rgba: &[f32] = bytemuck::cast_slice(&texels);
+    let image = HdrImage {
+        width: settings.width,
+        height: settings.height,
+        rgb: rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(),
+    };
+    let timestamps = match profiler.timestamp_status() {
+        Ok(()) => "reliable".to_string(),
+        Err(why) => why,
+    };
+    let stats = RenderStats {
+        scene: scene.name.clone(),
+        technique: info.name.to_string(),
+        width: settings.width,
+        height: settings.height,
+        frames: settings.frames,
+        adapter: ctx.summary.clone(),
+        wall_ms,
+        setup_ms,
+        timestamps,
+        passes: profiler.timings(),
+        parameters: params.to_map(),
+        triangles: scene.triangle_count(),
+        bvh_build_ms: gpu_scene.bvh_build_ms,
+        gpu_scene_bytes: gpu_scene.memory_bytes,
+        counters: technique.counters(),
+    };
+    Ok(RenderOutput { image, stats })
+}
+
+type Setup = (GpuScene, FrameResources, wgpu::Texture, Box<dyn techniques::Technique>);
+
+fn setup(
+    ctx: &GpuContext,
+    scene: &Scene,
+    settings: &RenderSettings,
+    info: &techniques::TechniqueInfo,
+    params: &crate::params::ParamValues,
+) -> Result<Setup, RenderError> {
+    let gpu_scene = GpuScene::new(ctx, scene)?;
+    let frame = FrameResources::new(
+        ctx,
+        &gpu_scene,
+        scene,
+        settings.width,
+        settings.height,
+        ShadowSettings::from_params(params),
+    )?;
+    let output = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("radiance"),
+        size: wgpu::Extent3d { width: settings.width, height: settings.height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: OUTPUT_FORMAT,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    });
+    let technique = (info.create)(&TechniqueSetup {
+        ctx,
+        scene,
+        gpu_scene: &gpu_scene,
+        frame: &frame,
+        params,
+        output: &output,
+    })?;
+    Ok((gpu_scene, frame, output, technique))
 }

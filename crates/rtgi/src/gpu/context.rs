@@ -61,10 +61,20 @@ impl GpuContext {
     /// Creates a headless device: prefers a discrete GPU, falls back to integrated, virtual and CPU
     /// adapters (lavapipe). `WGPU_BACKEND` selects backends (default: all that are compiled in).
     pub fn new(options: &GpuOptions) -> Result<Self, GpuError> {
-        let descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        // GL is a last resort (no f16, texture atomics or float32 filtering) and probing EGL prints
+        // noise on headless machines: try it only when asked for or when nothing else exists.
+        if wgpu::Backends::from_env().is_none() {
+            descriptor.backends = wgpu::Backends::PRIMARY;
+        }
         let backends = descriptor.backends;
         let instance = wgpu::Instance::new(descriptor);
         let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
+        if adapters.is_empty() && backends == wgpu::Backends::PRIMARY {
+            let mut gl = wgpu::InstanceDescriptor::new_without_display_handle();
+            gl.backends = wgpu::Backends::GL;
+            adapters = pollster::block_on(wgpu::Instance::new(gl).enumerate_adapters(wgpu::Backends::GL));
+        }
         if let Some(filter) = &options.adapter_filter {
             let f = filter.to_lowercase();
             adapters.retain(|a| a.get_info().name.to_lowercase().contains(&f));
@@ -90,7 +100,9 @@ impl GpuContext {
         let available = adapter.features();
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
-            | wgpu::Features::FLOAT32_FILTERABLE;
+            | wgpu::Features::FLOAT32_FILTERABLE
+            // Read-write storage access to rgba32float, for in-place accumulation of radiance.
+            | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
         let features = available & wanted;
         let has_timestamps = features
             .contains(wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
@@ -119,6 +131,20 @@ impl GpuContext {
             .poll(wgpu::PollType::wait_indefinitely())
             .map(|_| ())
             .map_err(|e| GpuError::Other(format!("waiting for the device: {e}")))
+    }
+
+    /// Runs `f` inside validation and out-of-memory error scopes, so a device error becomes a
+    /// [`GpuError`] naming `what` instead of wgpu's default panic.
+    pub fn checked<R>(&self, what: &str, f: impl FnOnce() -> R) -> Result<R, GpuError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let result = f();
+        let v = pollster::block_on(validation.pop());
+        let o = pollster::block_on(oom.pop());
+        match v.or(o) {
+            Some(e) => Err(GpuError::Other(format!("{what}: {e}"))),
+            None => Ok(result),
+        }
     }
 
     /// Checks that a storage buffer of `bytes` fits the device, naming `what` in the error.

@@ -1,6 +1,11 @@
 //! GPU plumbing shared by every technique: device, resources, scene upload, BVH, timing, readback.
 
+pub mod bvh;
 pub mod context;
+pub mod profiler;
 pub mod readback;
+pub mod scene;
 
 pub use context::{AdapterSummary, GpuContext, GpuError, GpuOptions};
+pub use profiler::Profiler;
+pub use scene::GpuScene;

@@ -68,6 +68,10 @@ pub struct Material {
     /// Tangent-space normal map (glTF convention: +Y up, OpenGL style).
     pub normal_texture: Option<TextureRef>,
     pub normal_scale: f32,
+    /// Strength of the dielectric specular layer (KHR_materials_specular's `specularFactor`): 1 is the
+    /// glTF default (4 % Fresnel reflectance at normal incidence), 0 makes a dielectric exactly
+    /// Lambertian, as analytic and energy tests need.
+    pub specular: f32,
     pub alpha_mode: AlphaMode,
     pub double_sided: bool,
 }
@@ -85,6 +89,7 @@ impl Default for Material {
             emissive_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
+            specular: 1.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
         }
@@ -92,9 +97,9 @@ impl Default for Material {
 }
 
 impl Material {
-    /// A Lambertian (rough dielectric) material of the given linear albedo.
+    /// An exactly Lambertian material of the given linear albedo (no specular layer).
     pub fn diffuse(name: &str, albedo: Vec3) -> Self {
-        Material { name: name.into(), base_color: albedo.extend(1.0), ..Default::default() }
+        Material { name: name.into(), base_color: albedo.extend(1.0), specular: 0.0, ..Default::default() }
     }
 
     /// A black surface that emits `radiance`.

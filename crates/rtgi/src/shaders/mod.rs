@@ -15,6 +15,13 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/math.wgsl", include_str!("common/math.wgsl")),
     ("common/random.wgsl", include_str!("common/random.wgsl")),
     ("common/bvh.wgsl", include_str!("common/bvh.wgsl")),
+    ("common/color.wgsl", include_str!("common/color.wgsl")),
+    ("common/sampling.wgsl", include_str!("common/sampling.wgsl")),
+    ("common/brdf.wgsl", include_str!("common/brdf.wgsl")),
+    ("common/scene.wgsl", include_str!("common/scene.wgsl")),
+    ("common/environment.wgsl", include_str!("common/environment.wgsl")),
+    ("common/lights.wgsl", include_str!("common/lights.wgsl")),
+    ("common/frame.wgsl", include_str!("common/frame.wgsl")),
 ];
 
 /// Errors of shader composition (always a bug in rtgi's shaders, but reported, not panicked).

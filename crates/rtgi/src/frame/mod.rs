@@ -1,0 +1,672 @@
+//! The frame inputs every technique shares: camera uniforms, the deferred G-buffer and shadow maps,
+//! behind bind group 1 (`common/frame.wgsl`).
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use wgpu::util::DeviceExt;
+
+use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::gpu::{GpuContext, GpuError, GpuScene, Profiler};
+use crate::params::{ParamKind, ParamSpec, ParamValues};
+use crate::scene::Scene;
+use crate::shaders::{self, Defines};
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub view_proj: [[f32; 4]; 4],
+    pub inv_view_proj: [[f32; 4]; 4],
+    pub camera_position: [f32; 3],
+    pub frame_index: u32,
+    pub size: [u32; 2],
+    pub seed: u32,
+    pub shadow_filter_radius: u32,
+    pub shadow_depth_bias: f32,
+    pub shadow_normal_offset: f32,
+    pub shadow_map_size: f32,
+    pub _pad0: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ShadowView {
+    pub view_proj: [[f32; 4]; 4],
+    pub params: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct CameraUniforms {
+    view_proj: [[f32; 4]; 4],
+    position: [f32; 3],
+    _pad: f32,
+}
+
+/// Shadow-map parameters, shared by every technique that uses shadow maps.
+pub const SHADOW_PARAMS: [ParamSpec; 4] = [
+    ParamSpec {
+        name: "shadow_map_size",
+        kind: ParamKind::Int { min: 64, max: 8192 },
+        default: "1024",
+        doc: "edge of each shadow-map layer in texels (point lights use six layers)",
+    },
+    ParamSpec {
+        name: "shadow_filter",
+        kind: ParamKind::Int { min: 0, max: 4 },
+        default: "1",
+        doc: "PCF radius r: (2r+1)² bilinear comparison taps",
+    },
+    ParamSpec {
+        name: "shadow_bias",
+        kind: ParamKind::Float { min: 0.0, max: 0.1 },
+        default: "0.0001",
+        doc: "constant depth bias in NDC depth units",
+    },
+    ParamSpec {
+        name: "shadow_normal_offset",
+        kind: ParamKind::Float { min: 0.0, max: 16.0 },
+        default: "1.5",
+        doc: "offset of the lookup point along the geometric normal, in shadow-map texels",
+    },
+];
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowSettings {
+    pub size: u32,
+    pub filter_radius: u32,
+    pub depth_bias: f32,
+    pub normal_offset: f32,
+}
+
+impl ShadowSettings {
+    /// The settings when the technique declares [`SHADOW_PARAMS`]; `None` means no shadow maps.
+    pub fn from_params(params: &ParamValues) -> Option<Self> {
+        params.get("shadow_map_size")?;
+        Some(ShadowSettings {
+            size: params.int("shadow_map_size") as u32,
+            filter_radius: params.int("shadow_filter") as u32,
+            depth_bias: params.float("shadow_bias") as f32,
+            normal_offset: params.float("shadow_normal_offset") as f32,
+        })
+    }
+}
+
+pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub const MATERIAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Uint;
+pub const EMISSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub const DISTANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The radiance output of every technique.
+pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
+/// Bytes per pixel of the G-buffer (targets + depth).
+pub const GBUFFER_BYTES_PER_PIXEL: u32 = 8 + 8 + 8 + 8 + 4 + 4;
+
+const SHADOW_VIEW_STRIDE: u64 = 256;
+
+pub struct GBuffer {
+    pub albedo: wgpu::Texture,
+    pub normal: wgpu::Texture,
+    pub material: wgpu::Texture,
+    pub emission: wgpu::Texture,
+    pub distance: wgpu::Texture,
+    pub depth: wgpu::Texture,
+}
+
+/// Camera, G-buffer and shadow maps for one resolution and one set of shadow settings.
+pub struct FrameResources {
+    pub width: u32,
+    pub height: u32,
+    pub uniforms: FrameUniforms,
+    pub uniform_buffer: wgpu::Buffer,
+    pub gbuffer: GBuffer,
+    pub shadow_layers: u32,
+    pub shadow_views: Vec<ShadowView>,
+    /// Lights with their shadow layers assigned.
+    pub lights: Vec<GpuLight>,
+    pub bind_group_layout: wgpu::BindGroupLayout,
+    pub bind_group: wgpu::BindGroup,
+    camera_bind_group: wgpu::BindGroup,
+    gbuffer_pipeline: wgpu::RenderPipeline,
+    shadow_maps: wgpu::Texture,
+    shadow_bind_group: wgpu::BindGroup,
+    shadow_pipeline: Option<wgpu::RenderPipeline>,
+    shadows_rendered: bool,
+}
+
+fn target(ctx: &GpuContext, label: &str, w: u32, h: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
+    ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+fn any_perpendicular(d: Vec3) -> Vec3 {
+    if d.y.abs() < 0.99 { Vec3::Y } else { Vec3::Z }
+}
+
+/// Computes the shadow views of every light and assigns shadow layers (point lights take six).
+pub fn shadow_views(lights: &mut [GpuLight], scene: &Scene, size: u32) -> Vec<ShadowView> {
+    let bounds = scene.bounds();
+    let center = bounds.center();
+    let radius = (bounds.extent().length() * 0.5).max(1e-3);
+    let mut views = Vec::new();
+    let perspective = |pos: Vec3, dir: Vec3, fov: f32| {
+        // Near and far enclose the scene seen from the light.
+        let far = (pos - center).length() + radius;
+        let near = (far * 1e-4).max(1e-3);
+        let view = glam::camera::rh::view::look_to_mat4(pos, dir, any_perpendicular(dir));
+        let proj = glam::camera::rh::proj::directx::perspective(fov, 1.0, near, far);
+        ShadowView {
+            view_proj: (proj * view).to_cols_array_2d(),
+            params: [2.0 * (fov * 0.5).tan() / size as f32, 0.0, near, far],
+        }
+    };
+    for light in lights.iter_mut() {
+        light.shadow_layer = views.len() as i32;
+        let pos = Vec3::from(light.position);
+        let dir = Vec3::from(light.direction);
+        match light.kind {
+            LIGHT_SPOT => {
+                // A little beyond the outer cone so PCF at the cone's edge stays inside the map.
+                let fov = (2.0 * light.cos_outer.clamp(-1.0, 1.0).acos() + 0.05).min(3.0);
+                views.push(perspective(pos, dir, fov));
+            }
+            LIGHT_POINT => {
+                let faces = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+                for f in faces {
+                    views.push(perspective(pos, f, std::f32::consts::FRAC_PI_2));
+                }
+            }
+            LIGHT_DIRECTIONAL => {
+                let eye = center - dir * (2.0 * radius);
+                let view = glam::camera::rh::view::look_to_mat4(eye, dir, any_perpendicular(dir));
+                let proj = glam::camera::rh::proj::directx::orthographic(
+                    -radius,
+                    radius,
+                    -radius,
+                    radius,
+                    0.0,
+                    4.0 * radius,
+                );
+                views.push(ShadowView {
+                    view_proj: (proj * view).to_cols_array_2d(),
+                    params: [2.0 * radius / size as f32, 1.0, 0.0, 4.0 * radius],
+                });
+            }
+            _ => light.shadow_layer = -1,
+        }
+    }
+    views
+}
+
+fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let vis = wgpu::ShaderStages::COMPUTE | wgpu::ShaderStages::FRAGMENT;
+    let tex = |binding, sample_type| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: vis,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let float = wgpu::TextureSampleType::Float { filterable: false };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("frame"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: vis,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            tex(1, float),
+            tex(2, float),
+            tex(3, wgpu::TextureSampleType::Uint),
+            tex(4, float),
+            tex(5, float),
+            wgpu::BindGroupLayoutEntry {
+                binding: 6,
+                visibility: vis,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Depth,
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 7,
+                visibility: vis,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 8,
+                visibility: vis,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+        ],
+    })
+}
+
+fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("pass uniforms"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: dynamic,
+                min_binding_size: None,
+            },
+            count: None,
+        }],
+    })
+}
+
+impl FrameResources {
+    pub fn new(
+        ctx: &GpuContext,
+        gpu_scene: &GpuScene,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        shadows: Option<ShadowSettings>,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let max = ctx.limits().max_texture_dimension_2d;
+        if width > max || height > max {
+            return Err(GpuError::OverLimit(format!(
+                "image size {width}x{height} exceeds the device's max_texture_dimension_2d of {max}"
+            )));
+        }
+        let aspect = width as f32 / height as f32;
+        let cam = scene.camera;
+        let view_proj = cam.view_projection(aspect);
+
+        let mut lights = gpu_scene.lights.clone();
+        let settings = shadows.unwrap_or(ShadowSettings {
+            size: 1,
+            filter_radius: 0,
+            depth_bias: 0.0,
+            normal_offset: 0.0,
+        });
+        let views =
+            if shadows.is_some() { shadow_views(&mut lights, scene, settings.size) } else { Vec::new() };
+        let shadow_layers = views.len().max(1) as u32;
+        let max_layers = ctx.limits().max_texture_array_layers;
+        if shadow_layers > max_layers || settings.size > max {
+            return Err(GpuError::OverLimit(format!(
+                "{shadow_layers} shadow-map layers of {0}x{0} exceed the device's limits \
+                 (max_texture_array_layers {max_layers}, max_texture_dimension_2d {max})",
+                settings.size
+            )));
+        }
+        ctx.queue.write_buffer(&gpu_scene.light_buffer, 0, bytemuck::cast_slice(&lights));
+
+        let uniforms = FrameUniforms {
+            view_proj: view_proj.to_cols_array_2d(),
+            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
+            camera_position: cam.position.into(),
+            frame_index: 0,
+            size: [width, height],
+            seed: 0,
+            shadow_filter_radius: settings.filter_radius,
+            shadow_depth_bias: settings.depth_bias,
+            shadow_normal_offset: settings.normal_offset,
+            shadow_map_size: settings.size as f32,
+            _pad0: 0.0,
+        };
+        let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("frame uniforms"),
+            contents: bytemuck::bytes_of(&uniforms),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let gbuffer = GBuffer {
+            albedo: target(ctx, "gbuffer albedo", width, height, ALBEDO_FORMAT),
+            normal: target(ctx, "gbuffer normal", width, height, NORMAL_FORMAT),
+            material: target(ctx, "gbuffer material", width, height, MATERIAL_FORMAT),
+            emission: target(ctx, "gbuffer emission", width, height, EMISSION_FORMAT),
+            distance: target(ctx, "gbuffer distance", width, height, DISTANCE_FORMAT),
+            depth: target(ctx, "gbuffer depth", width, height, DEPTH_FORMAT),
+        };
+        let shadow_maps = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadow maps"),
+            size: wgpu::Extent3d {
+                width: settings.size,
+                height: settings.size,
+                depth_or_array_layers: shadow_layers,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let shadow_view_data: Vec<ShadowView> = if views.is_empty() {
+            vec![ShadowView { view_proj: Mat4::IDENTITY.to_cols_array_2d(), params: [0.0; 4] }]
+        } else {
+            views.clone()
+        };
+        let shadow_view_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("shadow views"),
+            contents: bytemuck::cast_slice(&shadow_view_data),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        // The same views again, one per 256-byte slot, for the dynamic-offset uniform of the depth pass.
+        let mut slots = vec![0u8; SHADOW_VIEW_STRIDE as usize * shadow_view_data.len()];
+        for (i, v) in shadow_view_data.iter().enumerate() {
+            let o = i * SHADOW_VIEW_STRIDE as usize;
+            slots[o..o + size_of::<ShadowView>()].copy_from_slice(bytemuck::bytes_of(v));
+        }
+        let shadow_uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("shadow view slots"),
+            contents: &slots,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let comparison = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("shadow comparison"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+
+        let bind_group_layout = frame_layout(device);
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let shadow_array_view = shadow_maps.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &bind_group_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniform_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.albedo)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.normal)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.material)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.emission)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.distance)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: wgpu::BindingResource::TextureView(&shadow_array_view),
+                },
+                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&comparison) },
+                wgpu::BindGroupEntry { binding: 8, resource: shadow_view_buffer.as_entire_binding() },
+            ],
+        });
+
+        // G-buffer pipeline.
+        let camera = CameraUniforms {
+            view_proj: view_proj.to_cols_array_2d(),
+            position: cam.position.into(),
+            _pad: 0.0,
+        };
+        let camera_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("camera"),
+            contents: bytemuck::bytes_of(&camera),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let camera_layout = uniform_layout(device, false);
+        let camera_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("camera"),
+            layout: &camera_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: camera_buffer.as_entire_binding() }],
+        });
+        let gbuffer_module =
+            shaders::create_module(device, "gbuffer", include_str!("gbuffer.wgsl"), &Defines::new())
+                .map_err(|e| GpuError::Other(e.to_string()))?;
+        let gbuffer_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("gbuffer"),
+            bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&camera_layout)],
+            immediate_size: 0,
+        });
+        let color =
+            |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+        let gbuffer_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("gbuffer"),
+            layout: Some(&gbuffer_layout),
+            vertex: wgpu::VertexState {
+                module: &gbuffer_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(GpuScene::vertex_layout())],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &gbuffer_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[
+                    color(ALBEDO_FORMAT),
+                    color(NORMAL_FORMAT),
+                    color(MATERIAL_FORMAT),
+                    color(EMISSION_FORMAT),
+                    color(DISTANCE_FORMAT),
+                ],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        // Shadow pipeline (only when shadow maps are in use).
+        let shadow_layout = uniform_layout(device, true);
+        let shadow_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shadow view"),
+            layout: &shadow_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &shadow_uniforms,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(size_of::<ShadowView>() as u64),
+                }),
+            }],
+        });
+        let shadow_pipeline = if views.is_empty() {
+            None
+        } else {
+            let module =
+                shaders::create_module(device, "shadow", include_str!("shadow.wgsl"), &Defines::new())
+                    .map_err(|e| GpuError::Other(e.to_string()))?;
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("shadow"),
+                bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&shadow_layout)],
+                immediate_size: 0,
+            });
+            Some(device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("shadow"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(GpuScene::vertex_layout())],
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[],
+                }),
+                multiview_mask: None,
+                cache: None,
+            }))
+        };
+
+        Ok(FrameResources {
+            width,
+            height,
+            uniforms,
+            uniform_buffer,
+            gbuffer,
+            shadow_layers,
+            shadow_views: views,
+            lights,
+            bind_group_layout,
+            bind_group,
+            camera_bind_group,
+            gbuffer_pipeline,
+            shadow_maps,
+            shadow_bind_group,
+            shadow_pipeline,
+            shadows_rendered: false,
+        })
+    }
+
+    /// Sets the frame index and seed for this frame.
+    pub fn begin_frame(&mut self, ctx: &GpuContext, frame_index: u32, seed: u32) {
+        self.uniforms.frame_index = frame_index;
+        self.uniforms.seed = seed;
+        ctx.queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&self.uniforms));
+    }
+
+    /// Renders the shadow maps (once: scene and lights are static) and the G-buffer.
+    pub fn render_inputs(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        profiler: &mut Profiler,
+    ) -> Result<(), GpuError> {
+        if !self.shadows_rendered {
+            if let Some(pipeline) = &self.shadow_pipeline {
+                profiler.pass(ctx, "shadow maps", |encoder| {
+                    for layer in 0..self.shadow_views.len() as u32 {
+                        let view = self.shadow_maps.create_view(&wgpu::TextureViewDescriptor {
+                            dimension: Some(wgpu::TextureViewDimension::D2),
+                            base_array_layer: layer,
+                            array_layer_count: Some(1),
+                            ..Default::default()
+                        });
+                        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                            label: Some("shadow map"),
+                            color_attachments: &[],
+                            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                                view: &view,
+                                depth_ops: Some(wgpu::Operations {
+                                    load: wgpu::LoadOp::Clear(1.0),
+                                    store: wgpu::StoreOp::Store,
+                                }),
+                                stencil_ops: None,
+                            }),
+                            timestamp_writes: None,
+                            occlusion_query_set: None,
+                            multiview_mask: None,
+                        });
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, &scene.bind_group, &[]);
+                        pass.set_bind_group(1, &self.shadow_bind_group, &[layer * SHADOW_VIEW_STRIDE as u32]);
+                        pass.set_vertex_buffer(0, scene.vertex_buffer.slice(..));
+                        pass.set_index_buffer(scene.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+                        pass.draw_indexed(0..scene.index_count, 0, 0..1);
+                    }
+                })?;
+            }
+            self.shadows_rendered = true;
+        }
+        profiler.pass(ctx, "gbuffer", |encoder| {
+            let views = [
+                self.gbuffer.albedo.create_view(&Default::default()),
+                self.gbuffer.normal.create_view(&Default::default()),
+                self.gbuffer.material.create_view(&Default::default()),
+                self.gbuffer.emission.create_view(&Default::default()),
+                self.gbuffer.distance.create_view(&Default::default()),
+            ];
+            let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
+                .iter()
+                .map(|v| {
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: v,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })
+                })
+                .collect();
+            let depth_view = self.gbuffer.depth.create_view(&Default::default());
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("gbuffer"),
+                color_attachments: &attachments,
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.gbuffer_pipeline);
+            pass.set_bind_group(0, &scene.bind_group, &[]);
+            pass.set_bind_group(1, &self.camera_bind_group, &[]);
+            pass.set_vertex_buffer(0, scene.vertex_buffer.slice(..));
+            pass.set_index_buffer(scene.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..scene.index_count, 0, 0..1);
+        })?;
+        Ok(())
+    }
+}

@@ -1,0 +1,659 @@
+//! Uploads a [`Scene`] to the GPU: vertex/index/material/light buffers, texture arrays, the environment,
+//! the emissive-triangle table and the BVH, all behind one bind group (group 0, `common/scene.wgsl`).
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec2, Vec3};
+use wgpu::util::DeviceExt;
+
+use super::{GpuContext, GpuError};
+use crate::scene::{AlphaMode, Environment, Light, Scene};
+
+/// 32-byte vertex shared by the raster vertex stage and storage reads (`Vertex` in scene.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuVertex {
+    pub position: [f32; 3],
+    /// Material index in the low 24 bits; bit 31 set when the tangent's handedness is negative.
+    pub material_flags: u32,
+    /// Octahedral unit normal as snorm16x2.
+    pub normal_oct: u32,
+    pub tangent_oct: u32,
+    pub uv: [f32; 2],
+}
+
+pub const MATERIAL_MASK: u32 = 0x00ff_ffff;
+pub const TANGENT_FLIP_BIT: u32 = 0x8000_0000;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub base_color: [f32; 4],
+    pub emissive: [f32; 3],
+    pub normal_scale: f32,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub alpha_cutoff: f32,
+    pub specular: f32,
+    pub tex_base: i32,
+    pub tex_metal_rough: i32,
+    pub tex_emissive: i32,
+    pub tex_normal: i32,
+}
+
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuLight {
+    pub position: [f32; 3],
+    pub kind: u32,
+    pub direction: [f32; 3],
+    pub shadow_layer: i32,
+    pub intensity: [f32; 3],
+    pub cos_outer: f32,
+    pub cos_inner: f32,
+    pub _pad: [f32; 3],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuEmissiveTriangle {
+    pub triangle: u32,
+    pub cdf: f32,
+    pub area: f32,
+    pub power: f32,
+}
+
+pub const ENV_NONE: u32 = 0;
+pub const ENV_UNIFORM: u32 = 1;
+pub const ENV_SKY: u32 = 2;
+pub const ENV_MAP: u32 = 3;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuSceneInfo {
+    pub triangle_count: u32,
+    pub light_count: u32,
+    pub emissive_count: u32,
+    pub env_kind: u32,
+    pub env_radiance: [f32; 3],
+    pub env_intensity: f32,
+    pub sun_direction: [f32; 3],
+    pub emissive_power: f32,
+    pub sun_radiance: [f32; 3],
+    pub _pad0: f32,
+    pub ground_radiance: [f32; 3],
+    pub _pad1: f32,
+    pub bounds_min: [f32; 3],
+    pub _pad2: f32,
+    pub bounds_max: [f32; 3],
+    pub _pad3: f32,
+}
+
+/// Largest texture layer edge; bigger images are downsampled (and a warning is recorded).
+pub const MAX_TEXTURE_SIZE: u32 = 2048;
+
+fn oct_encode(n: Vec3) -> Vec2 {
+    let n = n / (n.x.abs() + n.y.abs() + n.z.abs()).max(1e-20);
+    if n.z >= 0.0 {
+        Vec2::new(n.x, n.y)
+    } else {
+        let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+        Vec2::new((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
+    }
+}
+
+fn pack_snorm16x2(v: Vec2) -> u32 {
+    let q = |x: f32| ((x.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16 as u32;
+    q(v.x) | (q(v.y) << 16)
+}
+
+/// Packs a unit vector for `unpack2x16snorm` + `oct_decode`.
+pub fn pack_unit_vector(n: Vec3) -> u32 {
+    pack_snorm16x2(oct_encode(n))
+}
+
+/// Everything about the scene that lives on the GPU.
+pub struct GpuScene {
+    pub info: GpuSceneInfo,
+    pub vertex_buffer: wgpu::Buffer,
+    pub index_buffer: wgpu::Buffer,
+    pub index_count: u32,
+    pub material_buffer: wgpu::Buffer,
+    pub light_buffer: wgpu::Buffer,
+    pub lights: Vec<GpuLight>,
+    pub bind_group_layout: wgpu::BindGroupLayout,
+    pub bind_group: wgpu::BindGroup,
+    pub bvh_build_ms: f64,
+    /// Bytes of all buffers and textures uploaded.
+    pub memory_bytes: u64,
+    /// Non-fatal findings during upload (e.g. downsampled textures).
+    pub warnings: Vec<String>,
+}
+
+struct TextureArrays {
+    srgb: wgpu::Texture,
+    linear: wgpu::Texture,
+    bytes: u64,
+}
+
+/// Assigns texture-array layers to (texture, colour space) pairs used by materials.
+struct LayerTable {
+    srgb: Vec<u32>,
+    linear: Vec<u32>,
+    map: HashMap<(u32, bool), i32>,
+}
+
+impl LayerTable {
+    fn layer(&mut self, texture: Option<crate::scene::TextureRef>, srgb: bool) -> i32 {
+        let Some(t) = texture else { return -1 };
+        let list = if srgb { &mut self.srgb } else { &mut self.linear };
+        *self.map.entry((t.texture, srgb)).or_insert_with(|| {
+            list.push(t.texture);
+            (list.len() - 1) as i32
+        })
+    }
+}
+
+fn mip_chain(img: image::RgbaImage, levels: u32) -> Vec<image::RgbaImage> {
+    let mut out = vec![img];
+    for _ in 1..levels {
+        let prev = &out[out.len() - 1];
+        let (w, h) = ((prev.width() / 2).max(1), (prev.height() / 2).max(1));
+        out.push(image::imageops::resize(prev, w, h, image::imageops::FilterType::Triangle));
+    }
+    out
+}
+
+fn create_texture_array(
+    ctx: &GpuContext,
+    scene: &Scene,
+    layers: &[u32],
+    format: wgpu::TextureFormat,
+    warnings: &mut Vec<String>,
+) -> (wgpu::Texture, u64) {
+    let size = layers
+        .iter()
+        .map(|&t| scene.textures[t as usize].width.max(scene.textures[t as usize].height))
+        .max()
+        .unwrap_or(1)
+        .next_power_of_two()
+        .min(MAX_TEXTURE_SIZE);
+    let levels = size.ilog2() + 1;
+    let count = layers.len().max(1) as u32;
+    let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("scene textures"),
+        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: count },
+        mip_level_count: levels,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let mut bytes = 0u64;
+    // An empty array still needs one layer to bind; white is the neutral texture.
+    let sources: Vec<image::RgbaImage> = if layers.is_empty() {
+        vec![image::RgbaImage::from_pixel(1, 1, image::Rgba([255; 4]))]
+    } else {
+        layers
+            .iter()
+            .map(|&t| {
+                let tex = &scene.textures[t as usize];
+                image::RgbaImage::from_raw(tex.width, tex.height, tex.rgba8.clone())
+                    .unwrap_or_else(|| image::RgbaImage::from_pixel(1, 1, image::Rgba([255; 4])))
+            })
+            .collect()
+    };
+    for (layer, src) in sources.into_iter().enumerate() {
+        if src.width().max(src.height()) > MAX_TEXTURE_SIZE {
+            warnings.push(format!(
+                "texture layer {layer}: {}x{} downsampled to {size}x{size} (MAX_TEXTURE_SIZE)",
+                src.width(),
+                src.height()
+            ));
+        }
+        // All layers of an array share one size: resample every image to it.
+        let base = if src.width() == size && src.height() == size {
+            src
+        } else {
+            image::imageops::resize(&src, size, size, image::imageops::FilterType::Triangle)
+        };
+        for (level, img) in mip_chain(base, levels).iter().enumerate() {
+            ctx.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: level as u32,
+                    origin: wgpu::Origin3d { x: 0, y: 0, z: layer as u32 },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                img.as_raw(),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(4 * img.width()),
+                    rows_per_image: Some(img.height()),
+                },
+                wgpu::Extent3d { width: img.width(), height: img.height(), depth_or_array_layers: 1 },
+            );
+            bytes += img.as_raw().len() as u64;
+        }
+    }
+    (texture, bytes)
+}
+
+fn storage_layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn texture_layout_entry(
+    binding: u32,
+    view_dimension: wgpu::TextureViewDimension,
+    filterable: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// The layout of bind group 0; every pipeline that imports `common/scene.wgsl` uses it.
+pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let all = wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE;
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("scene"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: all,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            storage_layout_entry(1),
+            storage_layout_entry(2),
+            storage_layout_entry(3),
+            storage_layout_entry(4),
+            storage_layout_entry(5),
+            storage_layout_entry(6),
+            storage_layout_entry(7),
+            texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, true),
+            texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, true),
+            wgpu::BindGroupLayoutEntry {
+                binding: 10,
+                visibility: all,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+            texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
+        ],
+    })
+}
+
+/// Converts scene lights to their GPU form; shadow layers are assigned later by the frame core.
+pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
+    scene
+        .lights
+        .iter()
+        .map(|l| match *l {
+            Light::Point { position, intensity } => GpuLight {
+                position: position.into(),
+                kind: LIGHT_POINT,
+                direction: [0.0, -1.0, 0.0],
+                shadow_layer: -1,
+                intensity: intensity.into(),
+                cos_outer: -1.0,
+                cos_inner: -1.0,
+                _pad: [0.0; 3],
+            },
+            Light::Spot { position, direction, intensity, inner_angle, outer_angle } => GpuLight {
+                position: position.into(),
+                kind: LIGHT_SPOT,
+                direction: direction.normalize_or(Vec3::NEG_Y).into(),
+                shadow_layer: -1,
+                intensity: intensity.into(),
+                cos_outer: outer_angle.cos(),
+                cos_inner: inner_angle.cos(),
+                _pad: [0.0; 3],
+            },
+            Light::Directional { direction, irradiance } => GpuLight {
+                position: [0.0; 3],
+                kind: LIGHT_DIRECTIONAL,
+                direction: direction.normalize_or(Vec3::NEG_Y).into(),
+                shadow_layer: -1,
+                intensity: irradiance.into(),
+                cos_outer: -1.0,
+                cos_inner: -1.0,
+                _pad: [0.0; 3],
+            },
+        })
+        .collect()
+}
+
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+impl GpuScene {
+    /// Uploads `scene`. Device limits are checked before any allocation.
+    pub fn new(ctx: &GpuContext, scene: &Scene) -> Result<GpuScene, GpuError> {
+        scene.validate().map_err(|e| GpuError::Other(format!("invalid scene '{}': {e}", scene.name)))?;
+        let mut warnings = Vec::new();
+        let vertex_count = scene.vertex_count();
+        let triangle_count = scene.triangle_count();
+        if triangle_count == 0 {
+            return Err(GpuError::Other(format!("scene '{}' has no triangles", scene.name)));
+        }
+        ctx.check_storage_size("the vertex buffer", (vertex_count * size_of::<GpuVertex>()) as u64)?;
+        ctx.check_storage_size("the index buffer", (triangle_count * 12) as u64)?;
+
+        // Materials and texture layers.
+        let mut table = LayerTable { srgb: Vec::new(), linear: Vec::new(), map: HashMap::new() };
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                base_color: m.base_color.into(),
+                emissive: m.emissive.into(),
+                normal_scale: m.normal_scale,
+                metallic: m.metallic,
+                roughness: m.roughness,
+                alpha_cutoff: match m.alpha_mode {
+                    AlphaMode::Mask { cutoff } => cutoff,
+                    AlphaMode::Opaque | AlphaMode::Blend => -1.0,
+                },
+                specular: m.specular,
+                tex_base: table.layer(m.base_color_texture, true),
+                tex_metal_rough: table.layer(m.metallic_roughness_texture, false),
+                tex_emissive: table.layer(m.emissive_texture, true),
+                tex_normal: table.layer(m.normal_texture, false),
+            })
+            .collect();
+        let max_layers = ctx.limits().max_texture_array_layers as usize;
+        for (what, n) in [("sRGB", table.srgb.len()), ("linear", table.linear.len())] {
+            if n > max_layers {
+                return Err(GpuError::OverLimit(format!(
+                    "scene '{}' uses {n} {what} textures, over the device's max_texture_array_layers of {max_layers}",
+                    scene.name
+                )));
+            }
+        }
+
+        // Geometry: meshes concatenated in order; triangle t of the scene is indices[3t..3t+3].
+        let mut vertices = Vec::with_capacity(vertex_count);
+        let mut indices = Vec::with_capacity(triangle_count * 3);
+        let mut emissive = Vec::new();
+        let mut tri_base = 0u32;
+        for mesh in &scene.meshes {
+            let base = vertices.len() as u32;
+            for i in 0..mesh.positions.len() {
+                let t = mesh.tangents[i];
+                let flip = if t.w < 0.0 { TANGENT_FLIP_BIT } else { 0 };
+                vertices.push(GpuVertex {
+                    position: mesh.positions[i].into(),
+                    material_flags: (mesh.material & MATERIAL_MASK) | flip,
+                    normal_oct: pack_unit_vector(mesh.normals[i].normalize_or(Vec3::Y)),
+                    tangent_oct: pack_unit_vector(t.truncate().normalize_or(Vec3::X)),
+                    uv: mesh.uvs[i].into(),
+                });
+            }
+            indices.extend(mesh.indices.iter().map(|i| i + base));
+            let mat = &scene.materials[mesh.material as usize];
+            if mat.is_emissive() {
+                // Power ∝ luminance of the emission factor × area (× mean texel of an emissive texture).
+                let tex_mean = mat
+                    .emissive_texture
+                    .map_or(1.0, |t| mean_srgb_luminance(&scene.textures[t.texture as usize]));
+                let radiance = luminance(mat.emissive) * tex_mean;
+                for (k, tri) in mesh.indices.chunks_exact(3).enumerate() {
+                    let [a, b, c] = [0, 1, 2].map(|j| mesh.positions[tri[j] as usize]);
+                    let area = 0.5 * (b - a).cross(c - a).length();
+                    if area > 0.0 && radiance > 0.0 {
+                        emissive.push(GpuEmissiveTriangle {
+                            triangle: tri_base + k as u32,
+                            cdf: 0.0,
+                            area,
+                            power: radiance * area * std::f32::consts::PI,
+                        });
+                    }
+                }
+            }
+            tri_base += (mesh.indices.len() / 3) as u32;
+        }
+        let total_power: f64 = emissive.iter().map(|e| f64::from(e.power)).sum();
+        let mut running = 0.0f64;
+        for e in &mut emissive {
+            running += f64::from(e.power);
+            e.cdf = (running / total_power) as f32;
+        }
+        if let Some(last) = emissive.last_mut() {
+            last.cdf = 1.0;
+        }
+
+        let lights = gpu_lights(scene);
+        let bounds = scene.bounds();
+        let mut info = GpuSceneInfo {
+            triangle_count: triangle_count as u32,
+            light_count: lights.len() as u32,
+            emissive_count: emissive.len() as u32,
+            env_kind: ENV_NONE,
+            env_radiance: [0.0; 3],
+            env_intensity: 1.0,
+            sun_direction: [0.0, 1.0, 0.0],
+            emissive_power: total_power as f32,
+            sun_radiance: [0.0; 3],
+            _pad0: 0.0,
+            ground_radiance: [0.0; 3],
+            _pad1: 0.0,
+            bounds_min: bounds.min.into(),
+            _pad2: 0.0,
+            bounds_max: bounds.max.into(),
+            _pad3: 0.0,
+        };
+        let mut env_texels: (u32, u32, Vec<f32>) = (1, 1, vec![0.0; 4]);
+        match &scene.environment {
+            Environment::None => {}
+            Environment::Uniform(c) => {
+                info.env_kind = ENV_UNIFORM;
+                info.env_radiance = (*c).into();
+            }
+            Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance } => {
+                info.env_kind = ENV_SKY;
+                info.sun_direction = sun_direction.normalize_or(Vec3::Y).into();
+                info.sun_radiance = (*sun_radiance).into();
+                info.env_radiance = (*sky_radiance).into();
+                info.ground_radiance = (*ground_radiance).into();
+            }
+            Environment::Map(map) => {
+                info.env_kind = ENV_MAP;
+                info.env_intensity = map.intensity;
+                let max = ctx.limits().max_texture_dimension_2d;
+                if map.width > max || map.height > max {
+                    return Err(GpuError::OverLimit(format!(
+                        "environment map '{}' is {}x{}, over the device's max_texture_dimension_2d of {max}",
+                        map.path, map.width, map.height
+                    )));
+                }
+                let rgba: Vec<f32> = map.rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
+                env_texels = (map.width, map.height, rgba);
+            }
+        }
+
+        let device = &ctx.device;
+        let storage =
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+        let buffer = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            // wgpu rejects zero-sized storage bindings: pad empty tables to one element.
+            let padded;
+            let contents = if contents.is_empty() {
+                padded = vec![0u8; 16];
+                &padded[..]
+            } else {
+                contents
+            };
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let vertex_buffer =
+            buffer("vertices", bytemuck::cast_slice(&vertices), storage | wgpu::BufferUsages::VERTEX);
+        let index_buffer =
+            buffer("indices", bytemuck::cast_slice(&indices), storage | wgpu::BufferUsages::INDEX);
+        let material_buffer = buffer("materials", bytemuck::cast_slice(&materials), storage);
+        let light_buffer = buffer("lights", bytemuck::cast_slice(&lights), storage);
+        let emissive_buffer = buffer("emissive triangles", bytemuck::cast_slice(&emissive), storage);
+        let info_buffer = buffer(
+            "scene info",
+            bytemuck::bytes_of(&info),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+
+        let t0 = Instant::now();
+        let bvh = super::bvh::build_for_scene(scene);
+        let bvh_build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let gpu_bvh = super::bvh::GpuBvh::new(ctx, &bvh)?;
+
+        let (srgb_layers, linear_layers) = (table.srgb.clone(), table.linear.clone());
+        let (srgb, srgb_bytes) = create_texture_array(
+            ctx,
+            scene,
+            &srgb_layers,
+            wgpu::TextureFormat::Rgba8UnormSrgb,
+            &mut warnings,
+        );
+        let (linear, linear_bytes) =
+            create_texture_array(ctx, scene, &linear_layers, wgpu::TextureFormat::Rgba8Unorm, &mut warnings);
+        let textures = TextureArrays { srgb, linear, bytes: srgb_bytes + linear_bytes };
+        let env = device.create_texture_with_data(
+            &ctx.queue,
+            &wgpu::TextureDescriptor {
+                label: Some("environment map"),
+                size: wgpu::Extent3d { width: env_texels.0, height: env_texels.1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&env_texels.2),
+        );
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("scene textures"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            address_mode_w: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+
+        let layout = scene_bind_group_layout(device);
+        let array_view = |t: &wgpu::Texture| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        };
+        let srgb_view = array_view(&textures.srgb);
+        let linear_view = array_view(&textures.linear);
+        let env_view = env.create_view(&Default::default());
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: info_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: vertex_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: index_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: material_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: light_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: gpu_bvh.nodes.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: gpu_bvh.triangles.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: emissive_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&srgb_view) },
+                wgpu::BindGroupEntry {
+                    binding: 9,
+                    resource: wgpu::BindingResource::TextureView(&linear_view),
+                },
+                wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::Sampler(&sampler) },
+                wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(&env_view) },
+            ],
+        });
+        let memory_bytes = vertex_buffer.size()
+            + index_buffer.size()
+            + material_buffer.size()
+            + light_buffer.size()
+            + emissive_buffer.size()
+            + info_buffer.size()
+            + gpu_bvh.nodes.size()
+            + gpu_bvh.triangles.size()
+            + textures.bytes
+            + (env_texels.2.len() * 4) as u64;
+        Ok(GpuScene {
+            info,
+            vertex_buffer,
+            index_buffer,
+            index_count: indices.len() as u32,
+            material_buffer,
+            light_buffer,
+            lights,
+            bind_group_layout: layout,
+            bind_group,
+            bvh_build_ms,
+            memory_bytes,
+            warnings,
+        })
+    }
+
+    /// Vertex buffer layout for raster passes (matches [`GpuVertex`]).
+    pub fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+        const ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
+            0 => Float32x3, 1 => Uint32, 2 => Uint32, 3 => Uint32, 4 => Float32x2
+        ];
+        wgpu::VertexBufferLayout {
+            array_stride: size_of::<GpuVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &ATTRIBUTES,
+        }
+    }
+}
+
+fn mean_srgb_luminance(t: &crate::scene::Texture) -> f32 {
+    let decode = |c: u8| {
+        let c = f32::from(c) / 255.0;
+        if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    };
+    let n = (t.width * t.height).max(1) as f64;
+    let sum: f64 = t
+        .rgba8
+        .chunks_exact(4)
+        .map(|p| f64::from(luminance(Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))))
+        .sum();
+    (sum / n) as f32
+}

@@ -1,0 +1,139 @@
+// The one BRDF of rtgi: glTF metallic-roughness (Lambert + GGX with height-correlated Smith masking and
+// Schlick Fresnel), with KHR_materials_specular's scale of the dielectric specular layer.
+//
+// f = mix(dielectric, metal, metallic)
+//   dielectric = base/π · (1 − s·F(0.04)) + s·F(0.04) · D·V,   metal = F(base) · D·V
+// where s is the specular weight (0 gives an exactly Lambertian, energy-conserving surface) and
+// α = roughness², clamped so that perfectly smooth surfaces stay finite.
+
+#import common/math.wgsl
+#import common/sampling.wgsl
+
+// Material inputs at a surface point after texture lookups.
+struct SurfaceMaterial {
+    base_color: vec3f,
+    alpha: f32,
+    metallic: f32,
+    roughness: f32,
+    specular: f32,
+    emission: vec3f,
+}
+
+const MIN_ALPHA: f32 = 0.0025;
+
+fn ggx_alpha(roughness: f32) -> f32 {
+    return max(roughness * roughness, MIN_ALPHA);
+}
+
+fn ggx_d(alpha: f32, n_dot_h: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let d = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+// Height-correlated Smith visibility V = G2 / (4 n·l n·v) (Heitz 2014).
+fn smith_visibility(alpha: f32, n_dot_l: f32, n_dot_v: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
+    let gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);
+    return 0.5 / max(gv + gl, 1e-12);
+}
+
+// Smith G1 for the visible-normal pdf.
+fn smith_g1(alpha: f32, n_dot_v: f32) -> f32 {
+    let a2 = alpha * alpha;
+    return 2.0 * n_dot_v / (n_dot_v + sqrt(a2 + (1.0 - a2) * n_dot_v * n_dot_v));
+}
+
+fn schlick_weight(cos_theta: f32) -> f32 {
+    let m = saturate(1.0 - cos_theta);
+    let m2 = m * m;
+    return m2 * m2 * m;
+}
+
+fn fresnel_schlick(f0: vec3f, cos_theta: f32) -> vec3f {
+    return f0 + (1.0 - f0) * schlick_weight(cos_theta);
+}
+
+const DIELECTRIC_F0: f32 = 0.04;
+
+// BRDF value (without the cosine) for unit vectors n, v (towards the viewer), l (towards the light).
+fn brdf_eval(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> vec3f {
+    let n_dot_l = dot(n, l);
+    let n_dot_v = dot(n, v);
+    if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
+        return vec3f(0.0);
+    }
+    let h = normalize(v + l);
+    let n_dot_h = saturate(dot(n, h));
+    let v_dot_h = saturate(dot(v, h));
+    let alpha = ggx_alpha(m.roughness);
+    let spec = ggx_d(alpha, n_dot_h) * smith_visibility(alpha, n_dot_l, n_dot_v);
+    let fw = m.specular * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * schlick_weight(v_dot_h));
+    let dielectric = m.base_color * INV_PI * (1.0 - fw) + vec3f(spec * fw);
+    let metal = fresnel_schlick(m.base_color, v_dot_h) * spec;
+    return mix(dielectric, metal, m.metallic);
+}
+
+// Probability of choosing the specular lobe when sampling: the lobe's Fresnel-weighted share at
+// normal incidence, bounded away from 0 and 1 so neither lobe is starved.
+fn specular_probability(m: SurfaceMaterial, n_dot_v: f32) -> f32 {
+    let f = schlick_weight(n_dot_v);
+    let spec = mix(m.specular * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * f), 1.0, m.metallic);
+    let diff = (1.0 - m.metallic) * max3(m.base_color) * (1.0 - m.specular * DIELECTRIC_F0);
+    if spec <= 0.0 {
+        return 0.0;
+    }
+    if diff <= 0.0 {
+        return 1.0;
+    }
+    return clamp(spec / (spec + diff), 0.1, 0.9);
+}
+
+// Density of `brdf_sample` choosing l (solid angle measure).
+fn brdf_pdf(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> f32 {
+    let n_dot_l = dot(n, l);
+    let n_dot_v = dot(n, v);
+    if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
+        return 0.0;
+    }
+    let p_spec = specular_probability(m, n_dot_v);
+    let h = normalize(v + l);
+    let alpha = ggx_alpha(m.roughness);
+    // VNDF: D_v(h) / (4 v·h) = G1(v) D(h) / (4 n·v).
+    let pdf_spec = smith_g1(alpha, n_dot_v) * ggx_d(alpha, saturate(dot(n, h))) / (4.0 * n_dot_v);
+    return p_spec * pdf_spec + (1.0 - p_spec) * n_dot_l * INV_PI;
+}
+
+struct BrdfSample {
+    direction: vec3f,
+    pdf: f32,
+    // brdf · cos / pdf, or zero when the sample is invalid.
+    weight: vec3f,
+}
+
+// Samples a direction proportional (roughly) to the BRDF. `u.x` picks the lobe, `u.yz` the direction.
+fn brdf_sample(m: SurfaceMaterial, n: vec3f, v: vec3f, u: vec3f) -> BrdfSample {
+    var s: BrdfSample;
+    let n_dot_v = dot(n, v);
+    s.pdf = 0.0;
+    s.weight = vec3f(0.0);
+    if n_dot_v <= 0.0 {
+        return s;
+    }
+    let p_spec = specular_probability(m, n_dot_v);
+    var l: vec3f;
+    if u.x < p_spec {
+        let alpha = ggx_alpha(m.roughness);
+        let h = local_to_world(sample_ggx_vndf(world_to_local(v, n), alpha, u.yz), n);
+        l = reflect(-v, h);
+    } else {
+        l = local_to_world(sample_cosine_hemisphere(u.yz), n);
+    }
+    s.direction = l;
+    s.pdf = brdf_pdf(m, n, v, l);
+    if s.pdf > 0.0 {
+        s.weight = brdf_eval(m, n, v, l) * dot(n, l) / s.pdf;
+    }
+    return s;
+}

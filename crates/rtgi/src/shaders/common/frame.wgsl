@@ -1,0 +1,143 @@
+// Frame inputs shared by every technique (bind group 1): camera, G-buffer, shadow maps.
+// Layouts mirror `FrameUniforms` and `ShadowView` in frame/mod.rs.
+
+#import common/scene.wgsl
+#import common/lights.wgsl
+
+struct FrameUniforms {
+    view_proj: mat4x4f,
+    inv_view_proj: mat4x4f,
+    camera_position: vec3f,
+    frame_index: u32,
+    size: vec2u,
+    seed: u32,
+    shadow_filter_radius: u32,
+    // Constant depth bias and normal offset (in shadow-map texels) against self-shadowing.
+    shadow_depth_bias: f32,
+    shadow_normal_offset: f32,
+    shadow_map_size: f32,
+    _pad0: f32,
+}
+
+struct ShadowView {
+    view_proj: mat4x4f,
+    // x: world size of a texel at unit distance (perspective) or absolute (orthographic);
+    // y: 1 for orthographic projections.
+    params: vec4f,
+}
+
+@group(1) @binding(0) var<uniform> frame: FrameUniforms;
+// base colour (rgb), metallic (a)
+@group(1) @binding(1) var gb_albedo: texture_2d<f32>;
+// shading normal (xy, octahedral), geometric normal (zw, octahedral)
+@group(1) @binding(2) var gb_normal: texture_2d<f32>;
+// x: material index, y: pack4x8unorm(roughness, specular, 0, 0)
+@group(1) @binding(3) var gb_material: texture_2d<u32>;
+// emitted radiance
+@group(1) @binding(4) var gb_emission: texture_2d<f32>;
+// distance along the primary ray; 0 where the ray left the scene
+@group(1) @binding(5) var gb_distance: texture_2d<f32>;
+@group(1) @binding(6) var shadow_maps: texture_depth_2d_array;
+@group(1) @binding(7) var shadow_sampler: sampler_comparison;
+@group(1) @binding(8) var<storage, read> shadow_views: array<ShadowView>;
+
+// Unit direction of the primary ray through the centre of `pixel`.
+fn primary_ray_direction(pixel: vec2u) -> vec3f {
+    let ndc = vec2f(
+        (f32(pixel.x) + 0.5) / f32(frame.size.x) * 2.0 - 1.0,
+        1.0 - (f32(pixel.y) + 0.5) / f32(frame.size.y) * 2.0,
+    );
+    let p = frame.inv_view_proj * vec4f(ndc, 0.5, 1.0);
+    return normalize(p.xyz / p.w - frame.camera_position);
+}
+
+// A G-buffer texel decoded.
+struct GSurface {
+    valid: bool,
+    position: vec3f,
+    normal: vec3f,
+    geometric_normal: vec3f,
+    // Unit vector towards the camera.
+    view: vec3f,
+    distance: f32,
+    material_index: u32,
+    material: SurfaceMaterial,
+}
+
+fn load_gsurface(pixel: vec2u) -> GSurface {
+    var s: GSurface;
+    let p = vec2i(pixel);
+    s.distance = textureLoad(gb_distance, p, 0).r;
+    let dir = primary_ray_direction(pixel);
+    s.view = -dir;
+    s.valid = s.distance > 0.0;
+    if !s.valid {
+        return s;
+    }
+    s.position = frame.camera_position + dir * s.distance;
+    let nrm = textureLoad(gb_normal, p, 0);
+    s.normal = oct_decode(nrm.xy);
+    s.geometric_normal = oct_decode(nrm.zw);
+    let alb = textureLoad(gb_albedo, p, 0);
+    let mat = textureLoad(gb_material, p, 0);
+    let params = unpack4x8unorm(mat.y);
+    s.material_index = mat.x;
+    s.material.base_color = alb.rgb;
+    s.material.metallic = alb.a;
+    s.material.alpha = 1.0;
+    s.material.roughness = params.x;
+    s.material.specular = params.y;
+    s.material.emission = textureLoad(gb_emission, p, 0).rgb;
+    return s;
+}
+
+// Cube face of a direction, in the order +X, −X, +Y, −Y, +Z, −Z (matches frame/shadows.rs).
+fn cube_face(d: vec3f) -> i32 {
+    let a = abs(d);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1, 0, d.x > 0.0);
+    }
+    if a.y >= a.z {
+        return select(3, 2, d.y > 0.0);
+    }
+    return select(5, 4, d.z > 0.0);
+}
+
+// Fraction of the light that reaches `p` according to the light's shadow map, with a PCF kernel of
+// (2r+1)² bilinear comparison taps.
+fn shadow_visibility(light: Light, p: vec3f, ng: vec3f) -> f32 {
+    if light.shadow_layer < 0 {
+        return 1.0;
+    }
+    var layer = light.shadow_layer;
+    if light.kind == LIGHT_POINT {
+        layer += cube_face(p - light.position);
+    }
+    let view = shadow_views[layer];
+    var texel = view.params.x;
+    if view.params.y < 0.5 {
+        texel *= length(p - light.position);
+    }
+    let offset_p = p + ng * (frame.shadow_normal_offset * texel);
+    let clip = view.view_proj * vec4f(offset_p, 1.0);
+    if clip.w <= 0.0 {
+        return 1.0;
+    }
+    let ndc = clip.xyz / clip.w;
+    let uv = vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+    if any(uv < vec2f(0.0)) || any(uv > vec2f(1.0)) || ndc.z > 1.0 {
+        // Outside the shadow frustum: spot cones and fitted directional maps cover everything lit.
+        return 1.0;
+    }
+    let depth = ndc.z - frame.shadow_depth_bias;
+    let r = i32(frame.shadow_filter_radius);
+    let step = 1.0 / frame.shadow_map_size;
+    var sum = 0.0;
+    for (var y = -r; y <= r; y++) {
+        for (var x = -r; x <= r; x++) {
+            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + vec2f(f32(x), f32(y)) * step, layer, depth);
+        }
+    }
+    let taps = f32((2 * r + 1) * (2 * r + 1));
+    return sum / taps;
+}

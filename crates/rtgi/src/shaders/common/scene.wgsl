@@ -1,0 +1,225 @@
+// Scene bindings (bind group 0) and surface reconstruction, shared by raster passes, compute passes
+// and the path tracer. Layouts mirror the `#[repr(C)]` structs in gpu/scene.rs; a unit test checks
+// sizes and offsets with naga reflection.
+
+#import common/math.wgsl
+#import common/bvh.wgsl
+#import common/brdf.wgsl
+
+// 32 bytes. Normals and tangents are octahedral-encoded snorm16x2; the tangent's handedness is bit 31
+// of `material_flags`, the material index its low 24 bits.
+struct Vertex {
+    position: vec3f,
+    material_flags: u32,
+    normal_oct: u32,
+    tangent_oct: u32,
+    uv: vec2f,
+}
+
+struct Material {
+    base_color: vec4f,
+    emissive: vec3f,
+    normal_scale: f32,
+    metallic: f32,
+    roughness: f32,
+    // Fragments with alpha below this are cut away; negative for opaque materials.
+    alpha_cutoff: f32,
+    // Scale of the dielectric specular layer (KHR_materials_specular); 0 = pure Lambertian.
+    specular: f32,
+    // Layers in the sRGB (base colour, emissive) and linear (metallic-roughness, normal) texture
+    // arrays; -1 when absent.
+    tex_base: i32,
+    tex_metal_rough: i32,
+    tex_emissive: i32,
+    tex_normal: i32,
+}
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPOT: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
+
+struct Light {
+    position: vec3f,
+    kind: u32,
+    // Spot axis or the direction the directional light travels (towards the scene).
+    direction: vec3f,
+    // First layer of this light's shadow map (6 consecutive layers for point lights); -1 for none.
+    shadow_layer: i32,
+    // Radiant intensity (W/sr) or, for directional lights, irradiance (W/m²).
+    intensity: vec3f,
+    cos_outer: f32,
+    cos_inner: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+// An emissive triangle for area-light sampling; `cdf` is the running sum of power up to and
+// including this triangle, normalised to 1.
+struct EmissiveTriangle {
+    triangle: u32,
+    cdf: f32,
+    area: f32,
+    power: f32,
+}
+
+const ENV_NONE: u32 = 0u;
+const ENV_UNIFORM: u32 = 1u;
+const ENV_SKY: u32 = 2u;
+const ENV_MAP: u32 = 3u;
+
+struct SceneInfo {
+    triangle_count: u32,
+    light_count: u32,
+    emissive_count: u32,
+    env_kind: u32,
+    // Uniform radiance, or the sky's zenith radiance.
+    env_radiance: vec3f,
+    env_intensity: f32,
+    sun_direction: vec3f,
+    emissive_power: f32,
+    sun_radiance: vec3f,
+    _pad0: f32,
+    ground_radiance: vec3f,
+    _pad1: f32,
+    bounds_min: vec3f,
+    _pad2: f32,
+    bounds_max: vec3f,
+    _pad3: f32,
+}
+
+@group(0) @binding(0) var<uniform> scene_info: SceneInfo;
+@group(0) @binding(1) var<storage, read> vertices: array<Vertex>;
+@group(0) @binding(2) var<storage, read> indices: array<u32>;
+@group(0) @binding(3) var<storage, read> materials: array<Material>;
+@group(0) @binding(4) var<storage, read> lights: array<Light>;
+@group(0) @binding(5) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(6) var<storage, read> bvh_tris: array<vec4f>;
+@group(0) @binding(7) var<storage, read> emissive_triangles: array<EmissiveTriangle>;
+@group(0) @binding(8) var textures_srgb: texture_2d_array<f32>;
+@group(0) @binding(9) var textures_linear: texture_2d_array<f32>;
+@group(0) @binding(10) var texture_sampler: sampler;
+@group(0) @binding(11) var environment_map: texture_2d<f32>;
+
+const MATERIAL_MASK: u32 = 0x00ffffffu;
+const TANGENT_FLIP_BIT: u32 = 0x80000000u;
+
+fn vertex_normal(v: Vertex) -> vec3f {
+    return oct_decode(unpack2x16snorm(v.normal_oct));
+}
+
+fn vertex_tangent(v: Vertex) -> vec4f {
+    let w = select(1.0, -1.0, (v.material_flags & TANGENT_FLIP_BIT) != 0u);
+    return vec4f(oct_decode(unpack2x16snorm(v.tangent_oct)), w);
+}
+
+fn vertex_material(v: Vertex) -> u32 {
+    return v.material_flags & MATERIAL_MASK;
+}
+
+// Samples a texture layer; `lod` < 0 means "let the hardware pick" (fragment shaders only use
+// `sample_material_grad`, compute shaders pass an explicit level).
+fn sample_srgb(layer: i32, uv: vec2f, lod: f32) -> vec4f {
+    return textureSampleLevel(textures_srgb, texture_sampler, uv, layer, lod);
+}
+
+fn sample_linear(layer: i32, uv: vec2f, lod: f32) -> vec4f {
+    return textureSampleLevel(textures_linear, texture_sampler, uv, layer, lod);
+}
+
+fn base_color_alpha(m: Material, uv: vec2f, lod: f32) -> vec4f {
+    var c = m.base_color;
+    if m.tex_base >= 0 {
+        c *= sample_srgb(m.tex_base, uv, lod);
+    }
+    return c;
+}
+
+fn material_at(m: Material, uv: vec2f, lod: f32) -> SurfaceMaterial {
+    var s: SurfaceMaterial;
+    let c = base_color_alpha(m, uv, lod);
+    s.base_color = c.rgb;
+    s.alpha = c.a;
+    s.metallic = m.metallic;
+    s.roughness = m.roughness;
+    if m.tex_metal_rough >= 0 {
+        let mr = sample_linear(m.tex_metal_rough, uv, lod);
+        s.roughness *= mr.g;
+        s.metallic *= mr.b;
+    }
+    s.specular = m.specular;
+    s.emission = m.emissive;
+    if m.tex_emissive >= 0 {
+        s.emission *= sample_srgb(m.tex_emissive, uv, lod).rgb;
+    }
+    return s;
+}
+
+// Applies the material's tangent-space normal map; returns the unperturbed normal without one.
+fn perturb_normal(m: Material, n: vec3f, tangent: vec4f, uv: vec2f, lod: f32) -> vec3f {
+    if m.tex_normal < 0 {
+        return n;
+    }
+    let t = normalize(tangent.xyz - n * dot(n, tangent.xyz));
+    let b = cross(n, t) * tangent.w;
+    var tn = sample_linear(m.tex_normal, uv, lod).xyz * 2.0 - 1.0;
+    tn = vec3f(tn.xy * m.normal_scale, tn.z);
+    let p = normalize(tn.x * t + tn.y * b + tn.z * n);
+    // A perturbed normal must stay in the geometric hemisphere or shading leaks light.
+    return select(n, p, dot(p, n) > 0.01);
+}
+
+// Everything a shader needs about a ray hit.
+struct SurfaceHit {
+    position: vec3f,
+    // Geometric normal, facing the incoming ray.
+    geometric_normal: vec3f,
+    // Interpolated (and normal-mapped) shading normal, on the same side as the geometric normal.
+    normal: vec3f,
+    uv: vec2f,
+    material_index: u32,
+    material: SurfaceMaterial,
+}
+
+fn triangle_vertices(triangle: u32) -> array<Vertex, 3> {
+    let i = triangle * 3u;
+    return array<Vertex, 3>(vertices[indices[i]], vertices[indices[i + 1u]], vertices[indices[i + 2u]]);
+}
+
+fn triangle_uv(triangle: u32, u: f32, v: f32) -> vec2f {
+    let t = triangle_vertices(triangle);
+    return t[0].uv * (1.0 - u - v) + t[1].uv * u + t[2].uv * v;
+}
+
+// Reconstructs the surface at barycentrics (u, v) of `triangle`, seen along `dir`.
+fn surface_at(triangle: u32, u: f32, v: f32, dir: vec3f) -> SurfaceHit {
+    let t = triangle_vertices(triangle);
+    let w = 1.0 - u - v;
+    var s: SurfaceHit;
+    s.position = t[0].position * w + t[1].position * u + t[2].position * v;
+    var ng = normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
+    var n = normalize(vertex_normal(t[0]) * w + vertex_normal(t[1]) * u + vertex_normal(t[2]) * v);
+    let tangent = vertex_tangent(t[0]) * w + vertex_tangent(t[1]) * u + vertex_tangent(t[2]) * v;
+    s.uv = t[0].uv * w + t[1].uv * u + t[2].uv * v;
+    s.material_index = vertex_material(t[0]);
+    let m = materials[s.material_index];
+    s.material = material_at(m, s.uv, 0.0);
+    // rtgi shades both sides of every surface: flip both normals to face the viewer.
+    if dot(ng, dir) > 0.0 {
+        ng = -ng;
+    }
+    if dot(n, ng) < 0.0 {
+        n = -n;
+    }
+    s.normal = perturb_normal(m, n, vec4f(tangent.xyz, select(-1.0, 1.0, tangent.w >= 0.0)), s.uv, 0.0);
+    s.geometric_normal = ng;
+    return s;
+}
+
+// Alpha-mask test called by the BVH traversal for triangles flagged as alpha-tested.
+fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool {
+    let t = triangle_vertices(triangle);
+    let m = materials[vertex_material(t[0])];
+    let uv = t[0].uv * (1.0 - u - v) + t[1].uv * u + t[2].uv * v;
+    return base_color_alpha(m, uv, 0.0).a >= m.alpha_cutoff;
+}

@@ -1,0 +1,115 @@
+// Direct lighting from the G-buffer: emission, analytic lights through shadow maps, and (ray traced
+// through the shared BVH) emissive triangles and the environment. Progressive: frame k averages its
+// estimate into the output with weight 1/(k+1), so `--frames N` converges the stochastic terms.
+
+#import common/frame.wgsl
+#import common/environment.wgsl
+#import common/random.wgsl
+#import common/sampling.wgsl
+
+@group(2) @binding(0) var output: texture_storage_2d<rgba32float, read_write>;
+
+// Offset of secondary-ray origins, relative to the distance from the camera (float precision).
+const RAY_EPSILON: f32 = 1e-4;
+
+fn ray_origin(s: GSurface) -> vec3f {
+    return s.position + s.geometric_normal * (RAY_EPSILON * max(1.0, s.distance));
+}
+
+// One sample of light from emissive triangles, chosen by power, uniform on the triangle's area.
+fn sample_emissive(s: GSurface, u: vec3f) -> vec3f {
+    let count = scene_info.emissive_count;
+    // Binary search of the power CDF.
+    var lo = 0u;
+    var hi = count - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if emissive_triangles[mid].cdf < u.x {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let e = emissive_triangles[lo];
+    let prev = select(0.0, emissive_triangles[lo - 1u].cdf, lo > 0u);
+    let p_tri = e.cdf - prev;
+    let t = triangle_vertices(e.triangle);
+    let b = sample_triangle(u.yz);
+    let p = t[0].position * (1.0 - b.x - b.y) + t[1].position * b.x + t[2].position * b.y;
+    let ln = normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
+    let o = ray_origin(s);
+    let d = p - o;
+    let dist2 = dot(d, d);
+    let dist = sqrt(dist2);
+    let wi = d / dist;
+    let cos_light = abs(dot(ln, wi));
+    let cos_surf = dot(s.normal, wi);
+    if cos_surf <= 0.0 || cos_light <= 1e-6 || dot(s.geometric_normal, wi) <= 0.0 {
+        return vec3f(0.0);
+    }
+    if trace_any(Ray(o, wi), 0.0, dist * (1.0 - 1e-3)) {
+        return vec3f(0.0);
+    }
+    let m = materials[vertex_material(t[0])];
+    let uv = t[0].uv * (1.0 - b.x - b.y) + t[1].uv * b.x + t[2].uv * b.y;
+    let le = material_at(m, uv, 0.0).emission;
+    // Area density p_tri / A converted to solid angle: dist² / cos_light.
+    let pdf = p_tri / e.area * dist2 / cos_light;
+    return brdf_eval(s.material, s.normal, s.view, wi) * le * cos_surf / pdf;
+}
+
+// One cosine-weighted sample of the environment.
+fn sample_environment(s: GSurface, u: vec2f) -> vec3f {
+    let wi = local_to_world(sample_cosine_hemisphere(u), s.normal);
+    if dot(s.geometric_normal, wi) <= 0.0 {
+        return vec3f(0.0);
+    }
+    if trace_any(Ray(ray_origin(s), wi), 0.0, FLT_MAX) {
+        return vec3f(0.0);
+    }
+    // brdf · L · cos / (cos / π)
+    return brdf_eval(s.material, s.normal, s.view, wi) * environment_radiance(wi) * PI;
+}
+
+@compute @workgroup_size(TILE, TILE)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let s = load_gsurface(id.xy);
+    var radiance = vec3f(0.0);
+    if !s.valid {
+        radiance = environment_radiance(-s.view);
+    } else {
+        radiance = s.material.emission;
+        for (var i = 0u; i < scene_info.light_count; i++) {
+            let light = lights[i];
+            let inc = light_incidence(light, s.position);
+            let cos_theta = dot(s.normal, inc.direction);
+            if cos_theta <= 0.0 || dot(s.geometric_normal, inc.direction) <= 0.0 {
+                continue;
+            }
+            let vis = shadow_visibility(light, s.position, s.geometric_normal);
+            radiance += brdf_eval(s.material, s.normal, s.view, inc.direction) * inc.irradiance * cos_theta * vis;
+        }
+        var rng = rng_new(id.xy, frame.frame_index, frame.seed);
+        if scene_info.emissive_count > 0u && AREA_SAMPLES > 0u {
+            var sum = vec3f(0.0);
+            for (var k = 0u; k < AREA_SAMPLES; k++) {
+                sum += sample_emissive(s, vec3f(rng_next(&rng), rng_next2(&rng)));
+            }
+            radiance += sum / f32(AREA_SAMPLES);
+        }
+        if scene_info.env_kind != ENV_NONE && ENV_SAMPLES > 0u {
+            var sum = vec3f(0.0);
+            for (var k = 0u; k < ENV_SAMPLES; k++) {
+                sum += sample_environment(s, rng_next2(&rng));
+            }
+            radiance += sum / f32(ENV_SAMPLES);
+        }
+    }
+    let k = f32(frame.frame_index);
+    let previous = textureLoad(output, id.xy).rgb;
+    let blended = select(mix(previous, radiance, 1.0 / (k + 1.0)), radiance, frame.frame_index == 0u);
+    textureStore(output, id.xy, vec4f(blended, 1.0));
+}
