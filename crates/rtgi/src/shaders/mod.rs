@@ -146,10 +146,12 @@ pub fn validate(shader: &str, source: &str, defines: &Defines) -> naga::Module {
 mod tests {
     use super::*;
 
+    /// Each module is validated on top of `common/frame.wgsl`, which declares every binding and
+    /// includer-provided function that library modules may use (e.g. `bvh_nodes`, `bvh_alpha_test`).
     #[test]
-    fn every_common_module_validates_alone() {
+    fn every_common_module_validates() {
         for (path, _) in COMMON_MODULES {
-            validate(path, &format!("#import {path}\n"), &Defines::new());
+            validate(path, &format!("#import common/frame.wgsl\n#import {path}\n"), &Defines::new());
         }
     }
 
