@@ -657,3 +657,98 @@ fn mean_srgb_luminance(t: &crate::scene::Texture) -> f32 {
         .sum();
     (sum / n) as f32
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::{FrameUniforms, ShadowView};
+    use crate::shaders::layout::assert_layout;
+    use crate::shaders::{Defines, validate};
+    use std::mem::offset_of;
+
+    #[test]
+    fn gpu_structs_match_wgsl() {
+        let m = validate("layout", "#import common/frame.wgsl\n", &Defines::new());
+        assert_layout(&m, "Vertex", size_of::<GpuVertex>(), &[
+            ("position", offset_of!(GpuVertex, position)),
+            ("material_flags", offset_of!(GpuVertex, material_flags)),
+            ("normal_oct", offset_of!(GpuVertex, normal_oct)),
+            ("tangent_oct", offset_of!(GpuVertex, tangent_oct)),
+            ("uv", offset_of!(GpuVertex, uv)),
+        ]);
+        assert_layout(&m, "Material", size_of::<GpuMaterial>(), &[
+            ("base_color", offset_of!(GpuMaterial, base_color)),
+            ("emissive", offset_of!(GpuMaterial, emissive)),
+            ("normal_scale", offset_of!(GpuMaterial, normal_scale)),
+            ("metallic", offset_of!(GpuMaterial, metallic)),
+            ("roughness", offset_of!(GpuMaterial, roughness)),
+            ("alpha_cutoff", offset_of!(GpuMaterial, alpha_cutoff)),
+            ("specular", offset_of!(GpuMaterial, specular)),
+            ("tex_base", offset_of!(GpuMaterial, tex_base)),
+            ("tex_metal_rough", offset_of!(GpuMaterial, tex_metal_rough)),
+            ("tex_emissive", offset_of!(GpuMaterial, tex_emissive)),
+            ("tex_normal", offset_of!(GpuMaterial, tex_normal)),
+        ]);
+        assert_layout(&m, "Light", size_of::<GpuLight>(), &[
+            ("position", offset_of!(GpuLight, position)),
+            ("kind", offset_of!(GpuLight, kind)),
+            ("direction", offset_of!(GpuLight, direction)),
+            ("shadow_layer", offset_of!(GpuLight, shadow_layer)),
+            ("intensity", offset_of!(GpuLight, intensity)),
+            ("cos_outer", offset_of!(GpuLight, cos_outer)),
+            ("cos_inner", offset_of!(GpuLight, cos_inner)),
+        ]);
+        assert_layout(&m, "EmissiveTriangle", size_of::<GpuEmissiveTriangle>(), &[
+            ("triangle", offset_of!(GpuEmissiveTriangle, triangle)),
+            ("cdf", offset_of!(GpuEmissiveTriangle, cdf)),
+            ("area", offset_of!(GpuEmissiveTriangle, area)),
+            ("power", offset_of!(GpuEmissiveTriangle, power)),
+        ]);
+        assert_layout(&m, "SceneInfo", size_of::<GpuSceneInfo>(), &[
+            ("triangle_count", offset_of!(GpuSceneInfo, triangle_count)),
+            ("env_kind", offset_of!(GpuSceneInfo, env_kind)),
+            ("env_radiance", offset_of!(GpuSceneInfo, env_radiance)),
+            ("env_intensity", offset_of!(GpuSceneInfo, env_intensity)),
+            ("sun_direction", offset_of!(GpuSceneInfo, sun_direction)),
+            ("emissive_power", offset_of!(GpuSceneInfo, emissive_power)),
+            ("sun_radiance", offset_of!(GpuSceneInfo, sun_radiance)),
+            ("ground_radiance", offset_of!(GpuSceneInfo, ground_radiance)),
+            ("bounds_min", offset_of!(GpuSceneInfo, bounds_min)),
+            ("bounds_max", offset_of!(GpuSceneInfo, bounds_max)),
+        ]);
+        assert_layout(&m, "FrameUniforms", size_of::<FrameUniforms>(), &[
+            ("view_proj", offset_of!(FrameUniforms, view_proj)),
+            ("inv_view_proj", offset_of!(FrameUniforms, inv_view_proj)),
+            ("camera_position", offset_of!(FrameUniforms, camera_position)),
+            ("frame_index", offset_of!(FrameUniforms, frame_index)),
+            ("size", offset_of!(FrameUniforms, size)),
+            ("seed", offset_of!(FrameUniforms, seed)),
+            ("shadow_filter_radius", offset_of!(FrameUniforms, shadow_filter_radius)),
+            ("shadow_depth_bias", offset_of!(FrameUniforms, shadow_depth_bias)),
+            ("shadow_normal_offset", offset_of!(FrameUniforms, shadow_normal_offset)),
+            ("shadow_map_size", offset_of!(FrameUniforms, shadow_map_size)),
+        ]);
+        assert_layout(&m, "ShadowView", size_of::<ShadowView>(), &[
+            ("view_proj", offset_of!(ShadowView, view_proj)),
+            ("params", offset_of!(ShadowView, params)),
+        ]);
+    }
+
+    #[test]
+    fn unit_vectors_survive_packing() {
+        for i in 0..1000 {
+            let a = i as f32 * 0.7;
+            let b = (i as f32 * 0.37).sin();
+            let n = Vec3::new(a.cos() * (1.0 - b * b).sqrt(), b, a.sin() * (1.0 - b * b).sqrt()).normalize();
+            let p = pack_unit_vector(n);
+            let unpack = |x: u32| (x as u16 as i16) as f32 / 32767.0;
+            let e = Vec2::new(unpack(p), unpack(p >> 16));
+            // Octahedral decode, as in math.wgsl.
+            let mut d = Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+            let t = (-d.z).clamp(0.0, 1.0);
+            d.x += if d.x >= 0.0 { -t } else { t };
+            d.y += if d.y >= 0.0 { -t } else { t };
+            assert!(d.normalize().dot(n) > 0.99999, "{n} -> {d}");
+        }
+    }
+}

@@ -169,3 +169,35 @@ mod tests {
         assert!(code.contains("const N: u32 = 3u;") && code.contains("const X: f32 = 0.5;"));
     }
 }
+
+/// Layout checks of `#[repr(C)]` structs against their WGSL twins, through naga reflection.
+#[cfg(test)]
+pub mod layout {
+    /// Size of the WGSL struct `name` and the byte offsets of its members, in declaration order.
+    pub fn wgsl_struct(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).expect("layout");
+        for (handle, ty) in module.types.iter() {
+            if ty.name.as_deref() == Some(name) {
+                if let naga::TypeInner::Struct { members, span } = &ty.inner {
+                    let _ = handle;
+                    return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
+                }
+            }
+        }
+        panic!("WGSL struct {name} not found");
+    }
+
+    /// Asserts that the WGSL struct `name` has `size` bytes and the given member offsets.
+    pub fn assert_layout(module: &naga::Module, name: &str, size: usize, offsets: &[(&str, usize)]) {
+        let (span, members) = wgsl_struct(module, name);
+        assert_eq!(span as usize, size, "size of {name}: WGSL {span}, Rust {size}");
+        for (field, offset) in offsets {
+            let m = members
+                .iter()
+                .find(|(n, _)| n == field)
+                .unwrap_or_else(|| panic!("{name}.{field} missing in WGSL"));
+            assert_eq!(m.1 as usize, *offset, "offset of {name}.{field}: WGSL {}, Rust {offset}", m.1);
+        }
+    }
+}
