@@ -141,6 +141,7 @@ pub fn render(
         height: settings.height,
         rgb: rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(),
     };
+    let counters = technique.counters(ctx)?;
     let timestamps = match profiler.timestamp_status() {
         Ok(()) => "reliable".to_string(),
         Err(why) => why,
@@ -160,7 +161,7 @@ pub fn render(
         triangles: scene.triangle_count(),
         bvh_build_ms: gpu_scene.bvh_build_ms,
         gpu_scene_bytes: gpu_scene.memory_bytes,
-        counters: technique.counters(),
+        counters,
     };
     Ok(RenderOutput { image, stats })
 }

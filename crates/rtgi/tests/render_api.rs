@@ -24,17 +24,32 @@ fn small_scene() -> Scene {
         meshes: vec![
             quad(
                 "floor",
-                [Vec3::new(-2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, -2.0), Vec3::new(-2.0, 0.0, -2.0)],
+                [
+                    Vec3::new(-2.0, 0.0, 2.0),
+                    Vec3::new(2.0, 0.0, 2.0),
+                    Vec3::new(2.0, 0.0, -2.0),
+                    Vec3::new(-2.0, 0.0, -2.0),
+                ],
                 0,
             ),
             quad(
                 "wall",
-                [Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 0.0, -2.0), Vec3::new(2.0, 2.0, -2.0), Vec3::new(-2.0, 2.0, -2.0)],
+                [
+                    Vec3::new(-2.0, 0.0, -2.0),
+                    Vec3::new(2.0, 0.0, -2.0),
+                    Vec3::new(2.0, 2.0, -2.0),
+                    Vec3::new(-2.0, 2.0, -2.0),
+                ],
                 1,
             ),
             quad(
                 "panel",
-                [Vec3::new(-0.5, 1.5, -0.5), Vec3::new(-0.5, 1.5, 0.5), Vec3::new(0.5, 1.5, 0.5), Vec3::new(0.5, 1.5, -0.5)],
+                [
+                    Vec3::new(-0.5, 1.5, -0.5),
+                    Vec3::new(-0.5, 1.5, 0.5),
+                    Vec3::new(0.5, 1.5, 0.5),
+                    Vec3::new(0.5, 1.5, -0.5),
+                ],
                 2,
             ),
         ],
@@ -97,9 +112,15 @@ fn invalid_settings_are_clear_errors() {
 #[ignore = "scratch"]
 fn scratch_dump() {
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
-    let mut s = settings("direct", 256, 192);
+    let mut s = settings(&std::env::var("SCRATCH_TECH").unwrap_or("direct".into()), 256, 192);
     s.frames = 8;
-    s.technique_settings = std::env::var("SCRATCH_SET").map(|v| v.split(",").filter_map(|kv| kv.split_once("=").map(|(a, b)| (a.to_string(), b.to_string()))).collect()).unwrap_or_default();
+    s.technique_settings = std::env::var("SCRATCH_SET")
+        .map(|v| {
+            v.split(",")
+                .filter_map(|kv| kv.split_once("=").map(|(a, b)| (a.to_string(), b.to_string())))
+                .collect()
+        })
+        .unwrap_or_default();
     let out = render(&ctx, &small_scene(), &s, &mut |_, _| {}).expect("render");
     let img = image::RgbImage::from_fn(256, 192, |x, y| {
         let p = out.image.pixel(x, y);

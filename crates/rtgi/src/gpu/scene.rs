@@ -308,6 +308,7 @@ pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                 count: None,
             },
             texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
+            storage_layout_entry(12),
         ],
     })
 }
@@ -443,6 +444,20 @@ impl GpuScene {
             tri_base += (mesh.indices.len() / 3) as u32;
         }
         let total_power: f64 = emissive.iter().map(|e| f64::from(e.power)).sum();
+        // power = L · A · π for a Lambertian emitter, so the area density of a point is L · π / total.
+        let emission_pdf: Vec<f32> = scene
+            .materials
+            .iter()
+            .map(|m| {
+                if !m.is_emissive() || total_power <= 0.0 {
+                    return 0.0;
+                }
+                let tex_mean = m
+                    .emissive_texture
+                    .map_or(1.0, |t| mean_srgb_luminance(&scene.textures[t.texture as usize]));
+                (f64::from(luminance(m.emissive) * tex_mean) * std::f64::consts::PI / total_power) as f32
+            })
+            .collect();
         let mut running = 0.0f64;
         for e in &mut emissive {
             running += f64::from(e.power);
@@ -526,6 +541,7 @@ impl GpuScene {
         let material_buffer = buffer("materials", bytemuck::cast_slice(&materials), storage);
         let light_buffer = buffer("lights", bytemuck::cast_slice(&lights), storage);
         let emissive_buffer = buffer("emissive triangles", bytemuck::cast_slice(&emissive), storage);
+        let emission_pdf_buffer = buffer("emission pdf", bytemuck::cast_slice(&emission_pdf), storage);
         let info_buffer = buffer(
             "scene info",
             bytemuck::bytes_of(&info),
@@ -603,6 +619,7 @@ impl GpuScene {
                 },
                 wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::Sampler(&sampler) },
                 wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(&env_view) },
+                wgpu::BindGroupEntry { binding: 12, resource: emission_pdf_buffer.as_entire_binding() },
             ],
         });
         let memory_bytes = vertex_buffer.size()
@@ -610,6 +627,7 @@ impl GpuScene {
             + material_buffer.size()
             + light_buffer.size()
             + emissive_buffer.size()
+            + emission_pdf_buffer.size()
             + info_buffer.size()
             + gpu_bvh.nodes.size()
             + gpu_bvh.triangles.size()
@@ -669,69 +687,101 @@ mod tests {
     #[test]
     fn gpu_structs_match_wgsl() {
         let m = validate("layout", "#import common/frame.wgsl\n", &Defines::new());
-        assert_layout(&m, "Vertex", size_of::<GpuVertex>(), &[
-            ("position", offset_of!(GpuVertex, position)),
-            ("material_flags", offset_of!(GpuVertex, material_flags)),
-            ("normal_oct", offset_of!(GpuVertex, normal_oct)),
-            ("tangent_oct", offset_of!(GpuVertex, tangent_oct)),
-            ("uv", offset_of!(GpuVertex, uv)),
-        ]);
-        assert_layout(&m, "Material", size_of::<GpuMaterial>(), &[
-            ("base_color", offset_of!(GpuMaterial, base_color)),
-            ("emissive", offset_of!(GpuMaterial, emissive)),
-            ("normal_scale", offset_of!(GpuMaterial, normal_scale)),
-            ("metallic", offset_of!(GpuMaterial, metallic)),
-            ("roughness", offset_of!(GpuMaterial, roughness)),
-            ("alpha_cutoff", offset_of!(GpuMaterial, alpha_cutoff)),
-            ("specular", offset_of!(GpuMaterial, specular)),
-            ("tex_base", offset_of!(GpuMaterial, tex_base)),
-            ("tex_metal_rough", offset_of!(GpuMaterial, tex_metal_rough)),
-            ("tex_emissive", offset_of!(GpuMaterial, tex_emissive)),
-            ("tex_normal", offset_of!(GpuMaterial, tex_normal)),
-        ]);
-        assert_layout(&m, "Light", size_of::<GpuLight>(), &[
-            ("position", offset_of!(GpuLight, position)),
-            ("kind", offset_of!(GpuLight, kind)),
-            ("direction", offset_of!(GpuLight, direction)),
-            ("shadow_layer", offset_of!(GpuLight, shadow_layer)),
-            ("intensity", offset_of!(GpuLight, intensity)),
-            ("cos_outer", offset_of!(GpuLight, cos_outer)),
-            ("cos_inner", offset_of!(GpuLight, cos_inner)),
-        ]);
-        assert_layout(&m, "EmissiveTriangle", size_of::<GpuEmissiveTriangle>(), &[
-            ("triangle", offset_of!(GpuEmissiveTriangle, triangle)),
-            ("cdf", offset_of!(GpuEmissiveTriangle, cdf)),
-            ("area", offset_of!(GpuEmissiveTriangle, area)),
-            ("power", offset_of!(GpuEmissiveTriangle, power)),
-        ]);
-        assert_layout(&m, "SceneInfo", size_of::<GpuSceneInfo>(), &[
-            ("triangle_count", offset_of!(GpuSceneInfo, triangle_count)),
-            ("env_kind", offset_of!(GpuSceneInfo, env_kind)),
-            ("env_radiance", offset_of!(GpuSceneInfo, env_radiance)),
-            ("env_intensity", offset_of!(GpuSceneInfo, env_intensity)),
-            ("sun_direction", offset_of!(GpuSceneInfo, sun_direction)),
-            ("emissive_power", offset_of!(GpuSceneInfo, emissive_power)),
-            ("sun_radiance", offset_of!(GpuSceneInfo, sun_radiance)),
-            ("ground_radiance", offset_of!(GpuSceneInfo, ground_radiance)),
-            ("bounds_min", offset_of!(GpuSceneInfo, bounds_min)),
-            ("bounds_max", offset_of!(GpuSceneInfo, bounds_max)),
-        ]);
-        assert_layout(&m, "FrameUniforms", size_of::<FrameUniforms>(), &[
-            ("view_proj", offset_of!(FrameUniforms, view_proj)),
-            ("inv_view_proj", offset_of!(FrameUniforms, inv_view_proj)),
-            ("camera_position", offset_of!(FrameUniforms, camera_position)),
-            ("frame_index", offset_of!(FrameUniforms, frame_index)),
-            ("size", offset_of!(FrameUniforms, size)),
-            ("seed", offset_of!(FrameUniforms, seed)),
-            ("shadow_filter_radius", offset_of!(FrameUniforms, shadow_filter_radius)),
-            ("shadow_depth_bias", offset_of!(FrameUniforms, shadow_depth_bias)),
-            ("shadow_normal_offset", offset_of!(FrameUniforms, shadow_normal_offset)),
-            ("shadow_map_size", offset_of!(FrameUniforms, shadow_map_size)),
-        ]);
-        assert_layout(&m, "ShadowView", size_of::<ShadowView>(), &[
-            ("view_proj", offset_of!(ShadowView, view_proj)),
-            ("params", offset_of!(ShadowView, params)),
-        ]);
+        assert_layout(
+            &m,
+            "Vertex",
+            size_of::<GpuVertex>(),
+            &[
+                ("position", offset_of!(GpuVertex, position)),
+                ("material_flags", offset_of!(GpuVertex, material_flags)),
+                ("normal_oct", offset_of!(GpuVertex, normal_oct)),
+                ("tangent_oct", offset_of!(GpuVertex, tangent_oct)),
+                ("uv", offset_of!(GpuVertex, uv)),
+            ],
+        );
+        assert_layout(
+            &m,
+            "Material",
+            size_of::<GpuMaterial>(),
+            &[
+                ("base_color", offset_of!(GpuMaterial, base_color)),
+                ("emissive", offset_of!(GpuMaterial, emissive)),
+                ("normal_scale", offset_of!(GpuMaterial, normal_scale)),
+                ("metallic", offset_of!(GpuMaterial, metallic)),
+                ("roughness", offset_of!(GpuMaterial, roughness)),
+                ("alpha_cutoff", offset_of!(GpuMaterial, alpha_cutoff)),
+                ("specular", offset_of!(GpuMaterial, specular)),
+                ("tex_base", offset_of!(GpuMaterial, tex_base)),
+                ("tex_metal_rough", offset_of!(GpuMaterial, tex_metal_rough)),
+                ("tex_emissive", offset_of!(GpuMaterial, tex_emissive)),
+                ("tex_normal", offset_of!(GpuMaterial, tex_normal)),
+            ],
+        );
+        assert_layout(
+            &m,
+            "Light",
+            size_of::<GpuLight>(),
+            &[
+                ("position", offset_of!(GpuLight, position)),
+                ("kind", offset_of!(GpuLight, kind)),
+                ("direction", offset_of!(GpuLight, direction)),
+                ("shadow_layer", offset_of!(GpuLight, shadow_layer)),
+                ("intensity", offset_of!(GpuLight, intensity)),
+                ("cos_outer", offset_of!(GpuLight, cos_outer)),
+                ("cos_inner", offset_of!(GpuLight, cos_inner)),
+            ],
+        );
+        assert_layout(
+            &m,
+            "EmissiveTriangle",
+            size_of::<GpuEmissiveTriangle>(),
+            &[
+                ("triangle", offset_of!(GpuEmissiveTriangle, triangle)),
+                ("cdf", offset_of!(GpuEmissiveTriangle, cdf)),
+                ("area", offset_of!(GpuEmissiveTriangle, area)),
+                ("power", offset_of!(GpuEmissiveTriangle, power)),
+            ],
+        );
+        assert_layout(
+            &m,
+            "SceneInfo",
+            size_of::<GpuSceneInfo>(),
+            &[
+                ("triangle_count", offset_of!(GpuSceneInfo, triangle_count)),
+                ("env_kind", offset_of!(GpuSceneInfo, env_kind)),
+                ("env_radiance", offset_of!(GpuSceneInfo, env_radiance)),
+                ("env_intensity", offset_of!(GpuSceneInfo, env_intensity)),
+                ("sun_direction", offset_of!(GpuSceneInfo, sun_direction)),
+                ("emissive_power", offset_of!(GpuSceneInfo, emissive_power)),
+                ("sun_radiance", offset_of!(GpuSceneInfo, sun_radiance)),
+                ("ground_radiance", offset_of!(GpuSceneInfo, ground_radiance)),
+                ("bounds_min", offset_of!(GpuSceneInfo, bounds_min)),
+                ("bounds_max", offset_of!(GpuSceneInfo, bounds_max)),
+            ],
+        );
+        assert_layout(
+            &m,
+            "FrameUniforms",
+            size_of::<FrameUniforms>(),
+            &[
+                ("view_proj", offset_of!(FrameUniforms, view_proj)),
+                ("inv_view_proj", offset_of!(FrameUniforms, inv_view_proj)),
+                ("camera_position", offset_of!(FrameUniforms, camera_position)),
+                ("frame_index", offset_of!(FrameUniforms, frame_index)),
+                ("size", offset_of!(FrameUniforms, size)),
+                ("seed", offset_of!(FrameUniforms, seed)),
+                ("shadow_filter_radius", offset_of!(FrameUniforms, shadow_filter_radius)),
+                ("shadow_depth_bias", offset_of!(FrameUniforms, shadow_depth_bias)),
+                ("shadow_normal_offset", offset_of!(FrameUniforms, shadow_normal_offset)),
+                ("shadow_map_size", offset_of!(FrameUniforms, shadow_map_size)),
+            ],
+        );
+        assert_layout(
+            &m,
+            "ShadowView",
+            size_of::<ShadowView>(),
+            &[("view_proj", offset_of!(ShadowView, view_proj)), ("params", offset_of!(ShadowView, params))],
+        );
     }
 
     #[test]

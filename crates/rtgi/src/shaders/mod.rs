@@ -22,6 +22,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/environment.wgsl", include_str!("common/environment.wgsl")),
     ("common/lights.wgsl", include_str!("common/lights.wgsl")),
     ("common/frame.wgsl", include_str!("common/frame.wgsl")),
+    ("common/light_sampling.wgsl", include_str!("common/light_sampling.wgsl")),
 ];
 
 /// Errors of shader composition (always a bug in rtgi's shaders, but reported, not panicked).
@@ -181,7 +182,10 @@ pub mod layout {
             if ty.name.as_deref() == Some(name) {
                 if let naga::TypeInner::Struct { members, span } = &ty.inner {
                     let _ = handle;
-                    return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
+                    return (
+                        *span,
+                        members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect(),
+                    );
                 }
             }
         }

@@ -6,6 +6,7 @@
 //! [`registry`].
 
 pub mod direct;
+pub mod path;
 
 use std::collections::BTreeMap;
 
@@ -40,8 +41,9 @@ pub trait Technique {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError>;
 
     /// Technique-specific figures for the stats (counts, bytes per pixel, energy lost to clamping...).
-    fn counters(&self) -> BTreeMap<String, f64> {
-        BTreeMap::new()
+    fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
+        let _ = ctx;
+        Ok(BTreeMap::new())
     }
 }
 
@@ -62,7 +64,7 @@ pub struct TechniqueInfo {
 
 /// Every technique, in the order `rtgi list` prints them.
 pub fn registry() -> &'static [TechniqueInfo] {
-    &[direct::INFO]
+    &[direct::INFO, path::INFO]
 }
 
 /// Finds a technique and validates `settings` against its parameters.

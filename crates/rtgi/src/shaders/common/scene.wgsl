@@ -100,6 +100,9 @@ struct SceneInfo {
 @group(0) @binding(9) var textures_linear: texture_2d_array<f32>;
 @group(0) @binding(10) var texture_sampler: sampler;
 @group(0) @binding(11) var environment_map: texture_2d<f32>;
+// Per material: the area density with which area-light sampling picks a point on a triangle of this
+// material, luminance(emission) · mean texture / total emitted power (0 for non-emitters).
+@group(0) @binding(12) var<storage, read> emission_pdf: array<f32>;
 
 const MATERIAL_MASK: u32 = 0x00ffffffu;
 const TANGENT_FLIP_BIT: u32 = 0x80000000u;

@@ -6,6 +6,7 @@
 #import common/environment.wgsl
 #import common/random.wgsl
 #import common/sampling.wgsl
+#import common/light_sampling.wgsl
 
 @group(2) @binding(0) var output: texture_storage_2d<rgba32float, read_write>;
 
@@ -16,46 +17,18 @@ fn ray_origin(s: GSurface) -> vec3f {
     return s.position + s.geometric_normal * (RAY_EPSILON * max(1.0, s.distance));
 }
 
-// One sample of light from emissive triangles, chosen by power, uniform on the triangle's area.
+// One sample of light from emissive triangles.
 fn sample_emissive(s: GSurface, u: vec3f) -> vec3f {
-    let count = scene_info.emissive_count;
-    // Binary search of the power CDF.
-    var lo = 0u;
-    var hi = count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if emissive_triangles[mid].cdf < u.x {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    let e = emissive_triangles[lo];
-    let prev = select(0.0, emissive_triangles[lo - 1u].cdf, lo > 0u);
-    let p_tri = e.cdf - prev;
-    let t = triangle_vertices(e.triangle);
-    let b = sample_triangle(u.yz);
-    let p = t[0].position * (1.0 - b.x - b.y) + t[1].position * b.x + t[2].position * b.y;
-    let ln = normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
     let o = ray_origin(s);
-    let d = p - o;
-    let dist2 = dot(d, d);
-    let dist = sqrt(dist2);
-    let wi = d / dist;
-    let cos_light = abs(dot(ln, wi));
-    let cos_surf = dot(s.normal, wi);
-    if cos_surf <= 0.0 || cos_light <= 1e-6 || dot(s.geometric_normal, wi) <= 0.0 {
+    let ls = sample_area_light(o, u);
+    let cos_surf = dot(s.normal, ls.direction);
+    if ls.pdf <= 0.0 || cos_surf <= 0.0 || dot(s.geometric_normal, ls.direction) <= 0.0 {
         return vec3f(0.0);
     }
-    if trace_any(Ray(o, wi), 0.0, dist * (1.0 - 1e-3)) {
+    if trace_any(Ray(o, ls.direction), 0.0, ls.distance * (1.0 - 1e-3)) {
         return vec3f(0.0);
     }
-    let m = materials[vertex_material(t[0])];
-    let uv = t[0].uv * (1.0 - b.x - b.y) + t[1].uv * b.x + t[2].uv * b.y;
-    let le = material_at(m, uv, 0.0).emission;
-    // Area density p_tri / A converted to solid angle: dist² / cos_light.
-    let pdf = p_tri / e.area * dist2 / cos_light;
-    return brdf_eval(s.material, s.normal, s.view, wi) * le * cos_surf / pdf;
+    return brdf_eval(s.material, s.normal, s.view, ls.direction) * ls.radiance * cos_surf / ls.pdf;
 }
 
 // One cosine-weighted sample of the environment.

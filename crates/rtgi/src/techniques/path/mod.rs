@@ -1,0 +1,174 @@
+//! `path`: the reference unidirectional path tracer (see `path.wgsl` for the estimator).
+//!
+//! It samples pixel centres by default, like the G-buffer of the raster techniques, so that images
+//! compare pixel for pixel; `pixel_jitter=true` box-filters each pixel instead.
+
+use std::collections::BTreeMap;
+
+use wgpu::util::DeviceExt;
+
+use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::{GpuContext, Profiler, readback};
+use crate::params::{ParamKind, ParamSpec};
+use crate::render::RenderError;
+use crate::shaders::Defines;
+
+use super::compute::{self, storage_texture_entry};
+use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "spp",
+        kind: ParamKind::Int { min: 1, max: 65536 },
+        default: "16",
+        doc: "samples per pixel and frame (frames accumulate)",
+    },
+    ParamSpec {
+        name: "max_bounces",
+        kind: ParamKind::Int { min: -1, max: 1024 },
+        default: "-1",
+        doc: "indirect bounces; -1 = unlimited (Russian roulette), 0 = direct light only, 1 = one bounce",
+    },
+    ParamSpec {
+        name: "nee",
+        kind: ParamKind::Choice(&["mis", "light", "brdf"]),
+        default: "mis",
+        doc: "how area lights and the environment are sampled: MIS of both, light sampling or BRDF sampling only",
+    },
+    ParamSpec {
+        name: "pixel_jitter",
+        kind: ParamKind::Bool,
+        default: "false",
+        doc: "box-filter each pixel (true) or sample its centre like the raster techniques (false)",
+    },
+    ParamSpec {
+        name: "seed",
+        kind: ParamKind::Int { min: 0, max: 4294967295 },
+        default: "0",
+        doc: "random seed",
+    },
+];
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "path",
+    description: "reference path tracer: NEE for every light, GGX VNDF + Lambert BRDF sampling, MIS, roulette",
+    params: PARAMS,
+    needs: FrameNeeds { gbuffer: false },
+    create,
+};
+
+struct PathTracer {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    ray_counter: wgpu::Buffer,
+    spp: u32,
+    rays: u64,
+    samples: u64,
+    pass_ms: f64,
+}
+
+fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
+    let device = &setup.ctx.device;
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("path"),
+        entries: &[
+            storage_texture_entry(0, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+        ],
+    });
+    let ray_counter = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("ray counter"),
+        contents: &[0u8; 4],
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    });
+    let view = setup.output.create_view(&Default::default());
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("path"),
+        layout: &layout,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+            wgpu::BindGroupEntry { binding: 1, resource: ray_counter.as_entire_binding() },
+        ],
+    });
+    let p = setup.params;
+    let nee = match p.choice("nee") {
+        "light" => 1,
+        "brdf" => 2,
+        _ => 0,
+    };
+    let spp = p.int("spp") as u32;
+    let defines = Defines::new()
+        .u32("SPP", spp)
+        .i32("MAX_BOUNCES", p.int("max_bounces") as i32)
+        .u32("NEE_MODE", nee)
+        .bool("PIXEL_JITTER", p.bool("pixel_jitter"));
+    let pipeline = compute::pipeline(
+        setup.ctx,
+        "path",
+        include_str!("path.wgsl"),
+        defines,
+        "main",
+        &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
+    )?;
+    Ok(Box::new(PathTracer { pipeline, bind_group, ray_counter, spp, rays: 0, samples: 0, pass_ms: 0.0 }))
+}
+
+impl Technique for PathTracer {
+    fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        fc.ctx.queue.write_buffer(&self.ray_counter, 0, &[0u8; 4]);
+        let start = std::time::Instant::now();
+        profiler.pass(fc.ctx, "path trace", |encoder| {
+            compute::dispatch_pixels(
+                encoder,
+                "path trace",
+                &self.pipeline,
+                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.bind_group],
+                fc.frame.width,
+                fc.frame.height,
+            );
+        })?;
+        self.pass_ms += start.elapsed().as_secs_f64() * 1e3;
+        let count = readback::read_buffer(fc.ctx, &self.ray_counter, 0, 4)?;
+        self.rays += u64::from(u32::from_le_bytes([count[0], count[1], count[2], count[3]]));
+        self.samples += u64::from(fc.frame.width) * u64::from(fc.frame.height) * u64::from(self.spp);
+        Ok(())
+    }
+
+    fn counters(&mut self, _ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
+        let seconds = (self.pass_ms / 1e3).max(1e-9);
+        Ok(BTreeMap::from([
+            ("samples".to_string(), self.samples as f64),
+            ("rays".to_string(), self.rays as f64),
+            ("samples_per_second".to_string(), self.samples as f64 / seconds),
+            ("rays_per_second".to_string(), self.rays as f64 / seconds),
+        ]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::shaders::{Defines, validate};
+
+    #[test]
+    fn shader_validates() {
+        validate(
+            "path",
+            include_str!("path.wgsl"),
+            &Defines::new()
+                .u32("TILE", 8)
+                .u32("SPP", 4)
+                .i32("MAX_BOUNCES", -1)
+                .u32("NEE_MODE", 0)
+                .bool("PIXEL_JITTER", false),
+        );
+    }
+}
