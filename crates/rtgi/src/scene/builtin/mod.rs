@@ -1,6 +1,9 @@
 //! Procedural built-in scenes (no asset files), listed by `rtgi list`.
 //!
-//! Each scene is a function of its validated parameters; generation is deterministic.
+//! Each scene is a function of its validated parameters; generation is deterministic (no RNG: where a
+//! scene wants irregularity it hashes integers, see [`shapes::hash`]).
+
+pub mod shapes;
 
 use crate::error::SceneError;
 use crate::params::{ParamSpec, ParamValues};
