@@ -3,6 +3,7 @@
 //! Each scene is a function of its validated parameters; generation is deterministic (no RNG: where a
 //! scene wants irregularity it hashes integers, see [`shapes::hash`]).
 
+mod atrium;
 mod bumpy_glossy;
 mod cornell;
 mod furnace;
@@ -24,7 +25,7 @@ pub struct BuiltinScene {
     pub build: fn(&ParamValues) -> Scene,
 }
 
-static SCENES: [BuiltinScene; 6] = [
+static SCENES: [BuiltinScene; 7] = [
     BuiltinScene {
         name: "cornell",
         description: "the Cornell box from its published measurements, lit by its emissive ceiling quad",
@@ -60,6 +61,12 @@ static SCENES: [BuiltinScene; 6] = [
         description: "dielectric and metal spheres of increasing roughness under a procedural sky",
         params: spheres_env::PARAMS,
         build: spheres_env::build,
+    },
+    BuiltinScene {
+        name: "atrium",
+        description: "Sponza-like courtyard with two storeys of arcades and cloths, sunlit; detail scales to >1 M triangles",
+        params: atrium::PARAMS,
+        build: atrium::build,
     },
 ];
 

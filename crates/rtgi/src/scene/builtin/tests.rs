@@ -1,10 +1,10 @@
 //! Tests of the built-in scenes: registry behaviour, mesh well-formedness, determinism, and the geometric
-//! promises each scene makes (published dimensions, watertightness, light-tightness),
+//! promises each scene makes (published dimensions, watertightness, light-tightness, triangle budgets),
 //! checked with a brute-force CPU ray caster.
 
 use std::collections::HashMap;
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use super::shapes::{hash_unit, subdivide};
 use super::*;
@@ -121,7 +121,10 @@ fn fingerprint(scene: &Scene) -> u64 {
 #[test]
 fn every_scene_builds_validates_and_frames_its_subject() {
     let names: Vec<&str> = list().iter().map(|s| s.name).collect();
-    assert_eq!(names, ["cornell", "cornell-spot", "two-rooms", "furnace", "bumpy-glossy", "spheres-env"]);
+    assert_eq!(
+        names,
+        ["cornell", "cornell-spot", "two-rooms", "furnace", "bumpy-glossy", "spheres-env", "atrium"]
+    );
     for entry in list() {
         assert!(!entry.description.is_empty());
         let s = scene(entry.name, &[]);
@@ -207,8 +210,10 @@ fn unknown_scene_lists_the_available_ones() {
 #[test]
 fn bad_parameters_are_rejected() {
     for (name, key, value) in [
+        ("atrium", "detail", "0"),
+        ("atrium", "detail", "6"),
+        ("atrium", "detail", "many"),
         ("spheres-env", "count", "1"),
-        ("spheres-env", "count", "many"),
         ("cornell", "size", "2"),
         ("furnace", "albedo", "1.5"),
         ("two-rooms", "door_width", "-1"),
@@ -544,6 +549,66 @@ fn spheres_env_rows_step_roughness_under_a_sky() {
     assert!(sky_radiance.max_element() > 0.5 && sky_radiance.max_element() < 2.0);
     assert!(sun_radiance.min_element() > 0.0);
     assert!(s.lights.is_empty());
+}
+
+#[test]
+fn atrium_triangle_budget_scales_with_detail() {
+    let mut previous = 0;
+    for detail in 1..=5 {
+        let s = scene("atrium", &[("detail", &detail.to_string())]);
+        let (tris, verts) = (s.triangle_count(), s.vertex_count());
+        eprintln!("atrium detail={detail}: {tris} triangles, {verts} vertices");
+        assert!(tris > previous * 3 / 2, "detail {detail} adds too little: {tris} after {previous}");
+        assert!(verts <= tris * 11 / 10, "detail {detail}: {verts} vertices for {tris} triangles");
+        if detail == 1 {
+            assert!((35_000..=70_000).contains(&tris), "{tris}");
+        }
+        if detail == 5 {
+            assert!((1_000_000..=1_600_000).contains(&tris), "{tris}");
+        }
+        previous = tris;
+    }
+}
+
+#[test]
+fn atrium_court_is_open_to_the_sky_and_sunlit() {
+    let s = scene("atrium", &[]);
+    let soup = Soup::new(&s);
+    let b = s.bounds();
+    assert!(
+        b.min.abs_diff_eq(Vec3::new(-18.5, 0.0, -9.5), 1e-4)
+            && b.max.abs_diff_eq(Vec3::new(18.5, 10.3, 9.5), 1e-4)
+    );
+    let [Light::Directional { direction, irradiance }] = s.lights[..] else { panic!("{:?}", s.lights) };
+    let Environment::Sky { sun_direction, sun_radiance, .. } = s.environment else {
+        panic!("expected a sky")
+    };
+    assert!(sun_direction.abs_diff_eq(-direction, 1e-6) && sun_direction.y > 0.8);
+    assert!(irradiance.min_element() > 1.0 && irradiance.max_element() < 20.0);
+    // The directional light carries the sun; the sky's glow around it (≈ 2π/33 sr wide) adds little.
+    assert!(sun_radiance.max_element() * std::f32::consts::TAU / 33.0 < 0.1 * irradiance.min_element());
+
+    // The court's floor sees the sky straight up; the galleries are roofed.
+    let up = DVec3::Y;
+    for (i, p) in [Vec2::new(0.0, 0.0), Vec2::new(12.0, 4.0), Vec2::new(-14.0, -5.0)].iter().enumerate() {
+        let o = DVec3::new(p.x as f64, 0.01, p.y as f64);
+        assert!(soup.cast(o, up, 1e-6, 1e9).is_none(), "court point {i} is covered");
+        // The sun reaches the middle of the court (no stray geometry above it).
+        if i == 0 {
+            assert!(!soup.occluded(o, o + sun_direction.as_dvec3() * 100.0));
+        }
+    }
+    for o in [DVec3::new(16.5, 1.0, 0.0), DVec3::new(0.0, 6.0, -7.5), DVec3::new(-16.5, 6.0, 7.5)] {
+        let hit = soup.cast(o, up, 1e-6, 1e9).expect("a gallery is open to the sky");
+        assert_eq!(s.meshes[hit.mesh].name, "gallery-ceilings");
+    }
+    // The camera stands in the court at eye height looking along the long (x) axis.
+    let cam = s.camera;
+    assert!(
+        cam.position.x.abs() < 15.0 && cam.position.z.abs() < 6.0 && (1.4..2.0).contains(&cam.position.y)
+    );
+    let forward = (cam.target - cam.position).normalize();
+    assert!(forward.x.abs() > 0.9);
 }
 
 #[test]
