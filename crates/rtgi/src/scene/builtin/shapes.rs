@@ -283,7 +283,7 @@ impl MeshBuilder {
         height: f32,
         segments: u32,
         caps: bool,
-        uvpm: f32,
+        uv_per_metre: f32,
     ) {
         let circumference = TAU * radius;
         let rings = cells(height, circumference / segments as f32 * 2.0);
@@ -300,7 +300,7 @@ impl MeshBuilder {
                 Vec2::new(
                     circumference * i as f32 / segments as f32,
                     height * (1.0 - j as f32 / rings as f32),
-                ) * uvpm
+                ) * uv_per_metre
             },
         );
         if caps {
@@ -311,7 +311,7 @@ impl MeshBuilder {
                         base_center + Vec3::new(radius * phi.cos(), y, -radius * phi.sin())
                     })
                     .collect();
-                self.polygon(&ring, facing, uvpm);
+                self.polygon(&ring, facing, uv_per_metre);
             }
         }
     }
