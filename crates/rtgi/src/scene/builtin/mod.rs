@@ -1,6 +1,17 @@
 //! Procedural built-in scenes (no asset files), listed by `rtgi list`.
 //!
-//! Each scene is a function of its validated parameters; generation is deterministic.
+//! Each scene is a function of its validated parameters; generation is deterministic (no RNG: where a
+//! scene wants irregularity it hashes integers, see [`shapes::hash`]).
+
+mod atrium;
+mod bumpy_glossy;
+mod cornell;
+mod furnace;
+pub mod shapes;
+mod spheres_env;
+#[cfg(test)]
+mod tests;
+mod two_rooms;
 
 use crate::error::SceneError;
 use crate::params::{ParamSpec, ParamValues};
@@ -14,9 +25,54 @@ pub struct BuiltinScene {
     pub build: fn(&ParamValues) -> Scene,
 }
 
+static SCENES: [BuiltinScene; 7] = [
+    BuiltinScene {
+        name: "cornell",
+        description: "the Cornell box from its published measurements, lit by its emissive ceiling quad",
+        params: cornell::PARAMS,
+        build: cornell::build,
+    },
+    BuiltinScene {
+        name: "cornell-spot",
+        description: "the Cornell box lit by one spot light near the ceiling instead of the area light",
+        params: cornell::PARAMS,
+        build: cornell::build_spot,
+    },
+    BuiltinScene {
+        name: "two-rooms",
+        description: "a lit and a dark room joined by a doorway in a 5 cm wall: light-leak test",
+        params: two_rooms::PARAMS,
+        build: two_rooms::build,
+    },
+    BuiltinScene {
+        name: "furnace",
+        description: "closed box of emissive grey walls (albedo 0.8, emission 0.2): radiance is exactly 1",
+        params: furnace::PARAMS,
+        build: furnace::build,
+    },
+    BuiltinScene {
+        name: "bumpy-glossy",
+        description: "glossy normal-mapped objects under red, green and blue point lights in a diffuse room",
+        params: bumpy_glossy::PARAMS,
+        build: bumpy_glossy::build,
+    },
+    BuiltinScene {
+        name: "spheres-env",
+        description: "dielectric and metal spheres of increasing roughness under a procedural sky",
+        params: spheres_env::PARAMS,
+        build: spheres_env::build,
+    },
+    BuiltinScene {
+        name: "atrium",
+        description: "Sponza-like courtyard with two storeys of arcades and cloths, sunlit; detail scales to >1 M triangles",
+        params: atrium::PARAMS,
+        build: atrium::build,
+    },
+];
+
 /// Every built-in scene, in the order `rtgi list` prints them.
 pub fn list() -> &'static [BuiltinScene] {
-    &[]
+    &SCENES
 }
 
 /// Builds the built-in scene `name` with `settings` (`key=value` pairs) applied over its defaults.
