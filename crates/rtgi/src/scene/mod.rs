@@ -41,7 +41,8 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     /// Unit shading normals.
     pub normals: Vec<Vec3>,
-    /// xyz: unit tangent along +u, w: handedness (±1); bitangent = w · cross(normal, tangent).
+    /// xyz: unit tangent along +u, w: handedness (±1); bitangent = w · cross(normal, tangent), which
+    /// points along −v (up the image, the direction of a glTF normal map's green channel).
     pub tangents: Vec<Vec4>,
     pub uvs: Vec<Vec2>,
     /// Three indices per triangle, counter-clockwise seen from the front.
@@ -404,7 +405,9 @@ pub fn generate_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], ind
                 t = nrm.any_orthonormal_vector();
             }
             let t = t.normalize();
-            let w = if nrm.cross(t).dot(bit[i]) < 0.0 { -1.0 } else { 1.0 };
+            // glTF's v axis points down the image while a normal map's green channel points up it, so
+            // the bitangent must follow −∂P/∂v (as the Khronos sample viewer and MikkTSpace on glTF do).
+            let w = if nrm.cross(t).dot(bit[i]) < 0.0 { 1.0 } else { -1.0 };
             t.extend(w)
         })
         .collect()
