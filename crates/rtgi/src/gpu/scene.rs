@@ -520,10 +520,11 @@ impl GpuScene {
         let storage =
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
         let buffer = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
-            // wgpu rejects zero-sized storage bindings: pad empty tables to one element.
+            // wgpu rejects zero-sized storage bindings: pad empty tables to one (zeroed) element of
+            // any of the structs above.
             let padded;
             let contents = if contents.is_empty() {
-                padded = vec![0u8; 16];
+                padded = vec![0u8; 256];
                 &padded[..]
             } else {
                 contents
