@@ -8,17 +8,17 @@ use std::sync::Mutex;
 
 use glam::{Vec3, Vec3A};
 
-use super::{BVH_FLAG_ALPHA_TESTED, BVH_STACK_SIZE, Bvh, BvhNode, BvhTriangle};
+use super::{BVH_FLAG_ALPHA_TESTED, BVH_MAX_TRIANGLES, BVH_STACK_SIZE, Bvh, BvhNode, BvhTriangle};
 
+/// Bins per axis for large nodes; small nodes use fewer (see [`Binner::new`]).
 const BINS: usize = 32;
+const MIN_BINS: usize = 8;
 const MAX_LEAF: usize = 4;
 /// SAH constants: a node visit (two box tests) costs about as much as a triangle test in `bvh.wgsl`.
 const COST_TRAVERSAL: f32 = 1.0;
 const COST_TRIANGLE: f32 = 1.0;
-/// Below this depth nodes split by SAH; from it on by object median, which halves the triangle count
-/// per level: log2(2^32 / MAX_LEAF) = 30 more levels at most, so the depth stays within the stack.
-const MEDIAN_DEPTH: u32 = 34;
-const _: () = assert!(MEDIAN_DEPTH + 30 <= BVH_STACK_SIZE);
+/// The traversal stack bounds the tree depth (see [`median_height`]).
+const MAX_DEPTH: u32 = BVH_STACK_SIZE;
 /// Nodes at this depth with at least `PARALLEL_MIN` triangles become independent subtree builds.
 const PARALLEL_DEPTH: u32 = 4;
 const PARALLEL_MIN: usize = 16 * 1024;
@@ -94,27 +94,37 @@ struct Bin {
 struct Binner {
     origin: Vec3A,
     scale: Vec3A,
+    bins: usize,
 }
 
 impl Binner {
-    fn new(centroids: &Bounds) -> Binner {
+    /// Most nodes are small, where 32 bins cost more to sweep than they gain: a node of `count` prims
+    /// gets about as many bins as prims (at least MIN_BINS).
+    fn new(centroids: &Bounds, count: usize) -> Binner {
+        let bins = count.clamp(MIN_BINS, BINS);
         let extent = centroids.max - centroids.min;
-        let s = Vec3A::splat(BINS as f32) / extent;
+        let s = Vec3A::splat(bins as f32) / extent;
         // A flat axis (or one so thin that the scale overflows) cannot be split: all prims go to bin 0.
         let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO) & s.is_finite_mask(), s, Vec3A::ZERO);
-        Binner { origin: centroids.min, scale }
+        Binner { origin: centroids.min, scale, bins }
     }
 
     #[inline(always)]
     fn bins(&self, c: Vec3A) -> [usize; 3] {
-        let b = ((c - self.origin) * self.scale).min(Vec3A::splat((BINS - 1) as f32));
+        let b = ((c - self.origin) * self.scale).min(Vec3A::splat((self.bins - 1) as f32));
         [b.x as usize, b.y as usize, b.z as usize]
     }
 
     #[inline(always)]
     fn bin(&self, c: Vec3A, axis: usize) -> usize {
-        (((c[axis] - self.origin[axis]) * self.scale[axis]).min((BINS - 1) as f32)) as usize
+        (((c[axis] - self.origin[axis]) * self.scale[axis]).min((self.bins - 1) as f32)) as usize
     }
+}
+
+/// Height of the subtree that object-median splits build over `count` prims: each level halves the
+/// count (rounding up) until a leaf holds at most MAX_LEAF.
+fn median_height(count: usize) -> u32 {
+    count.div_ceil(MAX_LEAF).next_power_of_two().trailing_zeros()
 }
 
 enum Plan {
@@ -134,10 +144,15 @@ fn plan(prims: &[Prim], task: &Task) -> Plan {
     if count == 1 {
         return Plan::Leaf;
     }
-    if task.depth >= MEDIAN_DEPTH {
+    // Depth budget: median splits finish any node within median_height levels, and an SAH split is
+    // allowed only while its children could still finish that way. Every node then satisfies
+    // depth + median_height(count) <= MAX_DEPTH (true at the root for any input up to BVH_MAX_TRIANGLES),
+    // so no leaf is deeper than MAX_DEPTH, whatever the geometry.
+    if task.depth + 1 + median_height(count) > MAX_DEPTH {
         return if count <= MAX_LEAF { Plan::Leaf } else { Plan::Median };
     }
-    let binner = Binner::new(&task.centroids);
+    let binner = Binner::new(&task.centroids, count);
+    let nb = binner.bins;
     let mut bins = [[Bin { bounds: Bounds::EMPTY, count: 0 }; BINS]; 3];
     for p in prims {
         let b = binner.bins(p.centroid2());
@@ -153,7 +168,7 @@ fn plan(prims: &[Prim], task: &Task) -> Plan {
         let mut right_count = [0u32; BINS];
         let mut acc = Bounds::EMPTY;
         let mut n = 0u32;
-        for i in (1..BINS).rev() {
+        for i in (1..nb).rev() {
             acc = acc.union(bins[i].bounds);
             n += bins[i].count;
             right_cost[i] = acc.half_area() * n as f32;
@@ -161,7 +176,7 @@ fn plan(prims: &[Prim], task: &Task) -> Plan {
         }
         let mut acc = Bounds::EMPTY;
         let mut n = 0u32;
-        for i in 1..BINS {
+        for i in 1..nb {
             acc = acc.union(bins[i - 1].bounds);
             n += bins[i - 1].count;
             let cost = acc.half_area() * n as f32 + right_cost[i];
@@ -186,7 +201,7 @@ fn plan(prims: &[Prim], task: &Task) -> Plan {
     let side = |range: std::ops::Range<usize>| {
         bins[axis][range].iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds))
     };
-    Plan::Binned { axis, bin, left: side(0..bin), right: side(bin..BINS) }
+    Plan::Binned { axis, bin, left: side(0..bin), right: side(bin..nb) }
 }
 
 /// Bounds and centroid bounds of a prim range.
@@ -205,7 +220,7 @@ fn measure(prims: &[Prim]) -> (Bounds, Bounds) {
 fn split(prims: &mut [Prim], task: &Task, plan: &Plan) -> (usize, [Bounds; 2], [Bounds; 2]) {
     match *plan {
         Plan::Binned { axis, bin, left, right } => {
-            let binner = Binner::new(&task.centroids);
+            let binner = Binner::new(&task.centroids, prims.len());
             let (mut cl, mut cr) = (Bounds::EMPTY, Bounds::EMPTY);
             let (mut i, mut j) = (0, prims.len());
             while i < j {
@@ -317,7 +332,7 @@ pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>) -> B
         let zero = Bounds { min: Vec3A::ZERO, max: Vec3A::ZERO };
         return Bvh { nodes: vec![node(&zero, 0, 1)], triangles: vec![EMPTY_TRIANGLE], max_depth: 0 };
     }
-    assert!(n < u32::MAX as usize, "BVH input of {n} triangles exceeds u32 indices");
+    debug_assert!(n <= BVH_MAX_TRIANGLES && median_height(n) <= MAX_DEPTH);
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(16);
     let threads = if n < 64 * 1024 { 1 } else { threads };
 

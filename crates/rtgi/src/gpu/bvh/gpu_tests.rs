@@ -112,8 +112,12 @@ pub(crate) struct Harness {
 
 impl Harness {
     pub(crate) fn new(ctx: &GpuContext, bvh: &Bvh, mode: u32) -> Result<Harness, GpuError> {
+        Self::with_source(ctx, bvh, mode, HARNESS)
+    }
+
+    fn with_source(ctx: &GpuContext, bvh: &Bvh, mode: u32, source: &str) -> Result<Harness, GpuError> {
         let module =
-            shaders::create_module(&ctx.device, "bvh harness", HARNESS, &Defines::new().u32("MODE", mode))
+            shaders::create_module(&ctx.device, "bvh harness", source, &Defines::new().u32("MODE", mode))
                 .map_err(|e| GpuError::Other(e.to_string()))?;
         let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("bvh harness"),
@@ -242,7 +246,7 @@ pub(crate) fn check_gpu_traversal(
 ) -> (GpuReport, GpuReport) {
     let alpha_tested: Vec<bool> = (0..triangles.len()).map(|i| alpha && i % 2 == 1).collect();
     let start = Instant::now();
-    let bvh = Bvh::build(triangles, Some(&alpha_tested));
+    let bvh = Bvh::build(triangles, Some(&alpha_tested)).expect("BVH build");
     let build_ms = start.elapsed().as_secs_f64() * 1e3;
     check_invariants(&bvh, triangles);
     eprintln!(
@@ -336,7 +340,7 @@ fn bvh_gpu_matches_cpu_on_sphere_in_box() {
 #[test]
 fn bvh_gpu_empty_bvh_misses() {
     let ctx = context();
-    let harness = Harness::new(&ctx, &Bvh::build(&[], None), 0).expect("harness");
+    let harness = Harness::new(&ctx, &Bvh::build(&[], None).expect("BVH build"), 0).expect("harness");
     let rays =
         [(Ray::new(Vec3::ZERO, Vec3::X), 0.0, f32::MAX), (Ray::new(Vec3::ONE, Vec3::NEG_ONE), 0.0, 1e30)];
     let (out, _) = harness.run(&ctx, &rays).expect("trace");
@@ -376,7 +380,7 @@ fn bvh_gpu_matches_cpu_on_large_mesh() {
     assert!(tris.len() >= 1_200_000);
     check_gpu_traversal(&ctx, "GPU large", &tris, false, 4096, 256);
 
-    let bvh = Bvh::build(&tris, None);
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
     let harness = Harness::new(&ctx, &bvh, 1).expect("harness");
     let (w, h) = (256, 256);
     let coherent: Vec<_> = geo::camera_rays(&tris, w, h).into_iter().map(|r| (r, 0.0, f32::MAX)).collect();
@@ -385,6 +389,8 @@ fn bvh_gpu_matches_cpu_on_large_mesh() {
         .filter(|r| r.kind == RayKind::Inside)
         .map(|r| (r.ray, 0.0, f32::MAX))
         .collect();
+    // lavapipe compiles the pipeline at its first dispatch: keep that out of the timings.
+    harness.run(&ctx, &coherent[..64]).expect("warm-up");
     for (name, rays) in [("coherent (camera)", &coherent), ("random (inside, any direction)", &random)] {
         let (out, seconds) = harness.run(&ctx, rays).expect("trace");
         let hits = out.iter().filter(|r| r.hit().is_some()).count();
@@ -401,4 +407,77 @@ fn bvh_gpu_matches_cpu_on_large_mesh() {
             rays.len() as f64 / seconds / 1e6
         );
     }
+}
+
+/// Throughput benchmark (not part of the suite): `cargo test --release -p rtgi bvh_gpu_benchmark --
+/// --ignored --nocapture`.
+#[test]
+#[ignore]
+fn bvh_gpu_benchmark() {
+    let ctx = context();
+    let tris = geo::city(1_200_000, 41);
+    for _ in 0..std::env::var("RTGI_BVH_BUILDS").map_or(2, |n| n.parse().unwrap_or(2)) {
+        let start = Instant::now();
+        let bvh = Bvh::build(&tris, None).expect("BVH build");
+        eprintln!(
+            "build {:.0} ms, {} nodes, {} leaves, SAH {:.1}",
+            start.elapsed().as_secs_f64() * 1e3,
+            bvh.nodes.len(),
+            bvh.leaf_count(),
+            bvh.sah_cost()
+        );
+    }
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
+    let coherent: Vec<_> =
+        geo::camera_rays(&tris, 512, 256).into_iter().map(|r| (r, 0.0, f32::MAX)).collect();
+    let random: Vec<_> = geo::test_rays(&tris, 6 * 65536, 99)
+        .into_iter()
+        .filter(|r| r.kind == RayKind::Inside)
+        .map(|r| (r.ray, 0.0, f32::MAX))
+        .collect();
+    let start = process_cpu_seconds();
+    let hits = coherent.iter().filter(|(r, a, b)| bvh.intersect(r, *a, *b).is_some()).count();
+    let s = process_cpu_seconds() - start;
+    eprintln!("CPU 1 thread coherent: {:.2} Mrays/s ({hits} hits)", coherent.len() as f64 / s / 1e6);
+    // RTGI_BVH_WGSL=path benchmarks a variant of bvh.wgsl without rebuilding.
+    let source = match std::env::var("RTGI_BVH_WGSL") {
+        Ok(path) => HARNESS.replace(
+            "#import common/bvh.wgsl",
+            &std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}")),
+        ),
+        Err(_) => HARNESS.to_string(),
+    };
+    let modes: Vec<u32> = std::env::var("RTGI_BVH_MODES")
+        .map(|m| m.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or(vec![1, 2]);
+    for mode in modes {
+        let harness = Harness::with_source(&ctx, &bvh, mode, &source).expect("harness");
+        harness.run(&ctx, &coherent[..64]).expect("warm-up");
+        for (name, rays) in [("coherent", &coherent), ("random", &random)] {
+            let mut best = f64::MAX;
+            let mut best_cpu = f64::MAX;
+            for _ in 0..3 {
+                let cpu = process_cpu_seconds();
+                best = best.min(harness.run(&ctx, rays).expect("trace").1);
+                best_cpu = best_cpu.min(process_cpu_seconds() - cpu);
+            }
+            // On a shared machine wall time depends on the other load; CPU time consumed by the driver
+            // threads does not (much), so it is the figure to compare variants by.
+            eprintln!(
+                "GPU mode {mode} {name}: {} rays, {:.2} Mrays/s wall, {:.2} Mrays per CPU-second",
+                rays.len(),
+                rays.len() as f64 / best / 1e6,
+                rays.len() as f64 / best_cpu / 1e6
+            );
+        }
+    }
+}
+
+/// User + system CPU time of this process (all threads, lavapipe's included), Linux only.
+fn process_cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15 (in ticks).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest.split_whitespace().skip(11).take(2).filter_map(|x| x.parse().ok()).collect();
+    f.iter().sum::<f64>() / 100.0
 }

@@ -37,8 +37,13 @@ use crate::scene::{AlphaMode, Scene};
 pub use traverse::{intersect_brute_force, occluded_brute_force};
 
 /// Entries of the traversal stack in `bvh.wgsl` (and the CPU traversal). The builder keeps the tree
-/// depth at or below this, which bounds the stack: at most one deferred sibling per level.
-pub const BVH_STACK_SIZE: u32 = 64;
+/// depth at or below this, which bounds the stack: at most one deferred sibling per level. SAH trees
+/// of millions of triangles are 25–30 deep; a smaller stack is less private memory per GPU thread.
+pub const BVH_STACK_SIZE: u32 = 32;
+
+/// Most triangles a BVH can hold: node references in `bvh.wgsl` pack `left_first` into 29 bits, and
+/// a BVH has fewer than 2n nodes. (Far beyond what fits a storage buffer binding anyway.)
+pub const BVH_MAX_TRIANGLES: usize = 1 << 28;
 
 /// Flag bit of [`BvhTriangle::flags`]: the triangle's material is alpha-masked, so a hit on it is
 /// confirmed by the includer's `bvh_alpha_test`.
@@ -174,13 +179,19 @@ pub struct Bvh {
 impl Bvh {
     /// Builds a BVH over `triangles`; `alpha_tested`, if given, flags triangles by the same index
     /// (missing entries count as opaque). Deterministic: the same input gives the same BVH, whatever
-    /// the number of threads.
-    pub fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>) -> Bvh {
-        build::build(triangles, alpha_tested)
+    /// the number of threads. Fails with [`GpuError::OverLimit`] over [`BVH_MAX_TRIANGLES`].
+    pub fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>) -> Result<Bvh, GpuError> {
+        if triangles.len() > BVH_MAX_TRIANGLES {
+            return Err(GpuError::OverLimit(format!(
+                "the scene has {} triangles; the BVH holds at most {BVH_MAX_TRIANGLES}",
+                triangles.len()
+            )));
+        }
+        Ok(build::build(triangles, alpha_tested))
     }
 
     /// Builds the BVH of a (valid) scene, triangle indices as in [`SceneTriangles::from_scene`].
-    pub fn from_scene(scene: &Scene) -> Bvh {
+    pub fn from_scene(scene: &Scene) -> Result<Bvh, GpuError> {
         let tris = SceneTriangles::from_scene(scene);
         Self::build(&tris.triangles, Some(&tris.alpha_tested))
     }
@@ -208,8 +219,8 @@ impl Bvh {
     /// quality figure for comparing builds, lower is better.
     pub fn sah_cost(&self) -> f64 {
         let half_area = |n: &BvhNode| {
-            let e = Vec3::from(n.aabb_max) - Vec3::from(n.aabb_min);
-            f64::from(e.x * e.y + e.y * e.z + e.z * e.x).max(0.0)
+            let e = (Vec3::from(n.aabb_max) - Vec3::from(n.aabb_min)).as_dvec3();
+            (e.x * e.y + e.y * e.z + e.z * e.x).max(0.0)
         };
         let root = half_area(&self.nodes[0]);
         if root <= 0.0 {

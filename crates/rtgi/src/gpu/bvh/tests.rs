@@ -84,7 +84,7 @@ pub(crate) fn compare_hits(got: Option<Hit>, want: Option<Hit>) -> Result<bool, 
 
 fn check_against_brute_force(label: &str, triangles: &[[Vec3; 3]], n_rays: usize, seed: u64) -> Agreement {
     let start = Instant::now();
-    let bvh = Bvh::build(triangles, None);
+    let bvh = Bvh::build(triangles, None).expect("BVH build");
     let build_ms = start.elapsed().as_secs_f64() * 1e3;
     check_invariants(&bvh, triangles);
     let rays = geo::test_rays(triangles, n_rays, seed);
@@ -150,16 +150,33 @@ fn bvh_cpu_traversal_matches_brute_force_on_structured_meshes() {
     geo::grid(&mut plane, 40, Vec3::ZERO, Vec3::X, Vec3::Z, |_, _| 0.0);
     check_against_brute_force("plane", &plane, 3000, 12);
     let same = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 300];
-    let bvh = Bvh::build(&same, None);
+    let bvh = Bvh::build(&same, None).expect("BVH build");
     check_invariants(&bvh, &same);
     let hit = bvh.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z), 0.0, f32::MAX);
     assert!(hit.is_some_and(|h| h.t == 1.0 && (h.u - 0.2).abs() < 1e-6 && (h.v - 0.2).abs() < 1e-6));
 }
 
 #[test]
+fn bvh_depth_stays_within_the_stack_on_pathological_input() {
+    // Geometrically growing triangles along a line: binned SAH peels off one or two per level, which
+    // unchecked makes a tree hundreds of levels deep.
+    let tris: Vec<[Vec3; 3]> = (0..3000)
+        .map(|i| {
+            let x = 1.02f32.powi(i);
+            let s = x * 0.01;
+            [Vec3::new(x, 0.0, 0.0), Vec3::new(x + s, s, 0.0), Vec3::new(x, s, s)]
+        })
+        .collect();
+    let a = check_against_brute_force("geometric", &tris, 2000, 13);
+    assert!(a.hits > 50, "{a:?}");
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
+    assert!(bvh.max_depth >= BVH_STACK_SIZE - 2, "the input no longer stresses the depth budget");
+}
+
+#[test]
 fn bvh_is_watertight_on_closed_meshes() {
     let tris = geo::sphere_in_box();
-    let bvh = Bvh::build(&tris, None);
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
     let (lo, hi, center, radius) = geo::SPHERE_IN_BOX;
     let mut rng = Rng::new(21);
     let mut rays = 0;
@@ -185,8 +202,8 @@ fn bvh_is_watertight_on_closed_meshes() {
 fn bvh_build_is_deterministic() {
     let tris = geo::city(200_000, 7);
     let alpha: Vec<bool> = (0..tris.len()).map(|i| i % 7 == 0).collect();
-    let a = Bvh::build(&tris, Some(&alpha));
-    let b = Bvh::build(&tris, Some(&alpha));
+    let a = Bvh::build(&tris, Some(&alpha)).expect("BVH build");
+    let b = Bvh::build(&tris, Some(&alpha)).expect("BVH build");
     check_invariants(&a, &tris);
     assert!(a == b, "two builds of the same input differ");
     assert_eq!(
@@ -205,7 +222,7 @@ fn bvh_alpha_test_filters_hits() {
     let far = [[Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)]];
     let tris = [near[0], far[0]];
     let alpha = [true, false];
-    let bvh = Bvh::build(&tris, Some(&alpha));
+    let bvh = Bvh::build(&tris, Some(&alpha)).expect("BVH build");
     let cutout = |_: u32, u: f32, _: f32| u >= 0.5;
     let opaque_part = Ray::new(Vec3::new(0.5, -0.8, 2.0), Vec3::NEG_Z);
     let cut_part = Ray::new(Vec3::new(-0.5, -0.8, 2.0), Vec3::NEG_Z);
@@ -219,13 +236,13 @@ fn bvh_alpha_test_filters_hits() {
 
 #[test]
 fn bvh_empty_and_tiny_inputs() {
-    let bvh = Bvh::build(&[], None);
+    let bvh = Bvh::build(&[], None).expect("BVH build");
     assert_eq!(bvh.triangle_count(), 0);
     check_invariants(&bvh, &[]);
     let ray = Ray::new(Vec3::new(0.1, 0.1, 1.0), Vec3::NEG_Z);
     assert!(bvh.intersect(&ray, 0.0, f32::MAX).is_none() && !bvh.occluded(&ray, 0.0, f32::MAX));
     let one = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
-    let bvh = Bvh::build(&one, None);
+    let bvh = Bvh::build(&one, None).expect("BVH build");
     assert_eq!((bvh.triangle_count(), bvh.nodes.len()), (1, 1));
     let hit = bvh.intersect(&ray, 0.0, f32::MAX).expect("hits the triangle");
     assert_eq!((hit.t, hit.triangle), (1.0, 0));
@@ -262,7 +279,7 @@ fn bvh_scene_triangles_concatenate_meshes() {
     assert_eq!([0, 1, 2, 3, 4].map(|t| st.mesh_of(t)), [Some(0), Some(0), Some(2), Some(2), None]);
     assert_eq!(st.material_of(&scene, 3), Some(1));
     assert_eq!(st.triangles[3], [Vec3::X, Vec3::ONE, Vec3::Y]);
-    let bvh = Bvh::from_scene(&scene);
+    let bvh = Bvh::from_scene(&scene).expect("BVH build");
     assert_eq!(bvh.triangles.iter().filter(|t| t.is_alpha_tested()).count(), 2);
 }
 

@@ -201,14 +201,17 @@ impl Bvh {
         let r = RayData::new(ray);
         let mut stack = [0u32; BVH_STACK_SIZE as usize];
         let mut sp = 0;
-        if r.box_entry(&self.nodes[0], tmin, tmax).is_none() {
-            return false;
-        }
-        stack[0] = 0;
-        sp += 1;
-        while sp > 0 {
-            sp -= 1;
-            let node = &self.nodes[stack[sp] as usize];
+        let mut current = r.box_entry(&self.nodes[0], tmin, tmax).map(|_| 0u32);
+        loop {
+            let index = match current.take() {
+                Some(i) => i,
+                None if sp == 0 => return false,
+                None => {
+                    sp -= 1;
+                    stack[sp]
+                }
+            };
+            let node = &self.nodes[index as usize];
             if node.is_leaf() {
                 for tri in &self.triangles[node.left_first as usize..(node.left_first + node.count) as usize]
                 {
@@ -222,14 +225,14 @@ impl Bvh {
                 continue;
             }
             let l = node.left_first;
-            for child in [l + 1, l] {
-                if r.box_entry(&self.nodes[child as usize], tmin, tmax).is_some() {
-                    stack[sp] = child;
-                    sp += 1;
-                }
+            let hl = r.box_entry(&self.nodes[l as usize], tmin, tmax).is_some();
+            let hr = r.box_entry(&self.nodes[l as usize + 1], tmin, tmax).is_some();
+            if hl && hr {
+                stack[sp] = l + 1;
+                sp += 1;
             }
+            current = if hl { Some(l) } else { hr.then_some(l + 1) };
         }
-        false
     }
 }
 

@@ -20,8 +20,9 @@
 
 #import common/math.wgsl
 
-// Deeper trees than this are never built (BVH_STACK_SIZE in gpu/bvh/mod.rs, checked by a test).
-const BVH_STACK_SIZE: u32 = 64u;
+// The builder never makes trees deeper than this, which bounds the stack (BVH_STACK_SIZE in
+// gpu/bvh/mod.rs; a test checks they agree).
+const BVH_STACK_SIZE: u32 = 32u;
 const BVH_NO_HIT: u32 = 0xffffffffu;
 const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
 // Box exit distances are scaled by 1 + 2γ₃ (Ize 2013, "Robust BVH Ray Traversal") so rounding never
@@ -155,6 +156,14 @@ fn bvh_accept(i: u32, u: f32, v: f32) -> bool {
     return bvh_alpha_test(bitcast<u32>(bvh_tris[3u * i].w), u, v);
 }
 
+// What a visit needs of a node, (left_first << 3) | count, kept from the parent's fetch of both
+// children so that visiting a node loads nothing. On lavapipe every storage load of a lane-varying
+// address is a scalar load per lane, so loads dominate traversal cost. (left_first < 2^29 and
+// count <= 4 are guaranteed by the builder.)
+fn bvh_node_ref(n: BvhNode) -> u32 {
+    return (n.left_first << 3u) | n.count;
+}
+
 // Closest hit with tmin < t < tmax (see the contract above).
 fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
     let r = bvh_ray(ray);
@@ -165,7 +174,7 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
     var stack_t: array<f32, BVH_STACK_SIZE>;
     var sp = 0u;
     let root = bvh_nodes[0];
-    var current = 0u;
+    var current = bvh_node_ref(root);
     var have_current = bvh_box_entry(root.aabb_min, root.aabb_max, r, tmin, t_best) < FLT_MAX;
     // One flat loop (no nested descent loop): on a SIMD CPU driver all lanes of a batch then step
     // together through inner nodes and leaves alike.
@@ -181,9 +190,10 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
             current = stack_node[sp];
         }
         have_current = false;
-        let node = bvh_nodes[current];
-        if node.count > 0u {
-            for (var i = node.left_first; i < node.left_first + node.count; i++) {
+        let first = current >> 3u;
+        let count = current & 7u;
+        if count > 0u {
+            for (var i = first; i < first + count; i++) {
                 let h = bvh_triangle(r, i, tmin, t_best);
                 if h.w != 0.0 && bvh_accept(i, h.y, h.z) {
                     t_best = h.x;
@@ -192,23 +202,23 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
             }
             continue;
         }
-        let l = node.left_first;
-        let left = bvh_nodes[l];
-        let right = bvh_nodes[l + 1u];
+        let left = bvh_nodes[first];
+        let right = bvh_nodes[first + 1u];
         let tl = bvh_box_entry(left.aabb_min, left.aabb_max, r, tmin, t_best);
         let tr = bvh_box_entry(right.aabb_min, right.aabb_max, r, tmin, t_best);
         if tl < FLT_MAX && tr < FLT_MAX {
-            let left_first = tl <= tr;
-            current = select(l + 1u, l, left_first);
-            stack_node[sp] = select(l, l + 1u, left_first);
+            // Near child first, so that hits found there cull the far one.
+            let left_near = tl <= tr;
+            current = select(bvh_node_ref(right), bvh_node_ref(left), left_near);
+            stack_node[sp] = select(bvh_node_ref(left), bvh_node_ref(right), left_near);
             stack_t[sp] = max(tl, tr);
             sp += 1u;
             have_current = true;
         } else if tl < FLT_MAX {
-            current = l;
+            current = bvh_node_ref(left);
             have_current = true;
         } else if tr < FLT_MAX {
-            current = l + 1u;
+            current = bvh_node_ref(right);
             have_current = true;
         }
     }
@@ -221,7 +231,7 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
     var stack: array<u32, BVH_STACK_SIZE>;
     var sp = 0u;
     let root = bvh_nodes[0];
-    var current = 0u;
+    var current = bvh_node_ref(root);
     var have_current = bvh_box_entry(root.aabb_min, root.aabb_max, r, tmin, tmax) < FLT_MAX;
     loop {
         if !have_current {
@@ -232,9 +242,10 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
             current = stack[sp];
         }
         have_current = false;
-        let node = bvh_nodes[current];
-        if node.count > 0u {
-            for (var i = node.left_first; i < node.left_first + node.count; i++) {
+        let first = current >> 3u;
+        let count = current & 7u;
+        if count > 0u {
+            for (var i = first; i < first + count; i++) {
                 let h = bvh_triangle(r, i, tmin, tmax);
                 if h.w != 0.0 && bvh_accept(i, h.y, h.z) {
                     return true;
@@ -242,16 +253,16 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
             }
             continue;
         }
-        let l = node.left_first;
-        let left = bvh_nodes[l];
-        let right = bvh_nodes[l + 1u];
+        let left = bvh_nodes[first];
+        let right = bvh_nodes[first + 1u];
         let hl = bvh_box_entry(left.aabb_min, left.aabb_max, r, tmin, tmax) < FLT_MAX;
         let hr = bvh_box_entry(right.aabb_min, right.aabb_max, r, tmin, tmax) < FLT_MAX;
+        // Any order finds an occluder; no distance sort needed.
         if hl && hr {
-            stack[sp] = l + 1u;
+            stack[sp] = bvh_node_ref(right);
             sp += 1u;
         }
-        current = select(l + 1u, l, hl);
+        current = select(bvh_node_ref(right), bvh_node_ref(left), hl);
         have_current = hl || hr;
     }
     return false;
