@@ -265,12 +265,20 @@ pub(crate) fn check_gpu_traversal(
     let (gpu, seconds) = harness.run(ctx, &input).unwrap_or_else(|e| panic!("{label}: {e}"));
     eprintln!("{label}: GPU traced {} rays (closest + any) in {:.1} ms", rays.len(), seconds * 1e3);
 
+    let cut_out = std::cell::Cell::new(0usize);
     let bvh_ref = compare(label, "CPU BVH", &rays, &gpu, |_, r| {
         let closest = bvh.intersect_with(&r.ray, r.tmin, r.tmax, alpha_cutout);
         let any = bvh.occluded_with(&r.ray, r.tmin, r.tmax, alpha_cutout);
         assert_eq!(any, closest.is_some(), "{label}: CPU any-hit and closest-hit disagree on {r:?}");
+        if alpha && closest != bvh.intersect(&r.ray, r.tmin, r.tmax) {
+            cut_out.set(cut_out.get() + 1);
+        }
         (closest, any)
     });
+    if alpha {
+        eprintln!("{label}: the alpha test changed {} of {} closest hits", cut_out.get(), rays.len());
+        assert!(cut_out.get() * 50 > rays.len(), "{label}: the alpha test is hardly exercised");
+    }
     // Brute force is O(rays × triangles): spread it over the cores.
     let n_brute = n_brute.min(rays.len());
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -429,7 +437,7 @@ fn bvh_gpu_benchmark() {
     }
     let bvh = Bvh::build(&tris, None).expect("BVH build");
     let coherent: Vec<_> =
-        geo::camera_rays(&tris, 512, 256).into_iter().map(|r| (r, 0.0, f32::MAX)).collect();
+        geo::camera_rays(&tris, 512, 512).into_iter().map(|r| (r, 0.0, f32::MAX)).collect();
     let random: Vec<_> = geo::test_rays(&tris, 6 * 65536, 99)
         .into_iter()
         .filter(|r| r.kind == RayKind::Inside)

@@ -10,7 +10,9 @@
 //! - [`BvhNode`], 32 bytes: `aabb_min, left_first, aabb_max, count`. `count > 0`: a leaf holding
 //!   triangles `[left_first, left_first + count)` in BVH order; `count == 0`: an internal node whose
 //!   children are `left_first` and `left_first + 1`. Siblings are adjacent so one index addresses both
-//!   and the traversal fetches both boxes from one 64-byte line. The root is node 0.
+//!   and the traversal fetches both boxes from one 64-byte line. The root is node 0. An empty input
+//!   gives a single leaf holding one degenerate triangle, which never hits, so shaders need no
+//!   special case (and no buffer is zero-sized).
 //! - [`BvhTriangle`], 48 bytes (3 × `vec4f`): vertices in BVH order; the `w` lanes carry the original
 //!   triangle index (v0), flags (v1, bit 0 = alpha-tested) and padding (v2). Keeping the vertices here
 //!   instead of indexing the scene's vertex buffer saves a dependent load per triangle test.
