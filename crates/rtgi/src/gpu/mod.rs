@@ -6,6 +6,7 @@ pub mod profiler;
 pub mod readback;
 pub mod scene;
 
+pub use bvh::{Bvh, GpuBvh};
 pub use context::{AdapterSummary, GpuContext, GpuError, GpuOptions};
 pub use profiler::Profiler;
 pub use scene::GpuScene;

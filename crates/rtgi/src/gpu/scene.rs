@@ -550,7 +550,7 @@ impl GpuScene {
         );
 
         let t0 = Instant::now();
-        let bvh = super::bvh::build_for_scene(scene);
+        let bvh = super::bvh::Bvh::from_scene(scene)?;
         let bvh_build_ms = t0.elapsed().as_secs_f64() * 1e3;
         let gpu_bvh = super::bvh::GpuBvh::new(ctx, &bvh)?;
 

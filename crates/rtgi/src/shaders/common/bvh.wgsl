@@ -1,21 +1,42 @@
-// TEMPORARY brute-force stand-in (replaced by the BVH branch): same interface as the real module.
-// Requires the includer to declare `bvh_nodes: array<BvhNode>`, `bvh_tris: array<vec4f>` and
-// `fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool`.
+// Ray queries against the scene BVH built by `gpu/bvh` (binned SAH, 32-byte nodes, triangles in BVH
+// order). The CPU traversal in `gpu/bvh/traverse.rs` mirrors this file operation for operation; keep
+// them in step.
+//
+// CONTRACT WITH THE INCLUDING SHADER. This module declares no bindings (each technique picks its own
+// group and binding numbers); the includer must declare, with exactly these names:
+//
+//   @group(G) @binding(B)     var<storage, read> bvh_nodes: array<BvhNode>;  // GpuBvh::nodes
+//   @group(G) @binding(B + 1) var<storage, read> bvh_tris: array<vec4f>;     // GpuBvh::triangles
+//   fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool
+//
+// bvh_tris holds 3 vec4f per triangle: v0.xyz + original triangle index (u32 bits), v1.xyz + flags
+// (u32 bits, bit 0 = alpha-tested), v2.xyz + padding. bvh_alpha_test is called only for hits on
+// triangles flagged alpha-tested, with the original (global) triangle index and the barycentrics of
+// v1 and v2; it returns true for an opaque hit. Shaders without alpha-masked materials can simply
+// `return true;`.
+//
+// Queries: hits are accepted for tmin < t < tmax, t in units of ray.dir (which need not be
+// normalised). A miss is `hit.triangle == BVH_NO_HIT`, with hit.t = FLT_MAX.
 
 #import common/math.wgsl
 
-struct BvhNode {
-    aabb_min: vec3f,
-    left_first: u32,
-    aabb_max: vec3f,
-    count: u32,
-}
+// The builder never makes trees deeper than this, which bounds the stack (BVH_STACK_SIZE in
+// gpu/bvh/mod.rs; a test checks they agree).
+const BVH_STACK_SIZE: u32 = 32u;
+const BVH_NO_HIT: u32 = 0xffffffffu;
+const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
+// Box exit distances are scaled by 1 + 2γ₃ (Ize 2013, "Robust BVH Ray Traversal") so rounding never
+// culls a box the ray touches, e.g. one whose face holds a triangle.
+const BVH_BOX_EXIT_SCALE: f32 = 1.0000004;
+// Direction components below this are replaced by ±this before inverting: no inf × 0 = NaN in slabs.
+const BVH_MIN_DIR_COMPONENT: f32 = 1e-20;
 
 struct Ray {
     origin: vec3f,
     dir: vec3f,
 }
 
+// origin + t·dir = (1 − u − v)·v0 + u·v1 + v·v2. Miss: triangle == BVH_NO_HIT, t == FLT_MAX.
 struct Hit {
     t: f32,
     triangle: u32,
@@ -23,47 +44,226 @@ struct Hit {
     v: f32,
 }
 
-fn intersect_triangle_mt(ray: Ray, i: u32) -> vec3f {
-    let a = bvh_tris[i * 3u].xyz;
-    let e1 = bvh_tris[i * 3u + 1u].xyz - a;
-    let e2 = bvh_tris[i * 3u + 2u].xyz - a;
-    let p = cross(ray.dir, e2);
-    let det = dot(e1, p);
-    if abs(det) < 1e-12 {
-        return vec3f(FLT_MAX, 0.0, 0.0);
-    }
-    let inv = 1.0 / det;
-    let s = ray.origin - a;
-    let u = dot(s, p) * inv;
-    let q = cross(s, e1);
-    let v = dot(ray.dir, q) * inv;
-    if u < 0.0 || v < 0.0 || u + v > 1.0 {
-        return vec3f(FLT_MAX, 0.0, 0.0);
-    }
-    return vec3f(dot(e2, q) * inv, u, v);
+// count > 0: leaf with triangles [left_first, left_first + count) in BVH order.
+// count == 0: internal node with children left_first and left_first + 1.
+struct BvhNode {
+    aabb_min: vec3f,
+    left_first: u32,
+    aabb_max: vec3f,
+    count: u32,
 }
 
+fn hit_found(hit: Hit) -> bool {
+    return hit.triangle != BVH_NO_HIT;
+}
+
+// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013). The paper's permutation of
+// axes (kz = dominant direction axis) and shear are folded into three rows: a vertex p relative to the
+// origin maps to (dot(p, row_x), dot(p, row_y), dot(p, row_z)), a space in which the ray is +z. Each
+// row has one 1 or S entry and zeros, so the dot products round exactly like the paper's
+// p[kx] - Sx·p[kz] (adding ±0 is exact) without dynamic vector indexing per triangle.
+struct BvhRay {
+    origin: vec3f,
+    inv_dir: vec3f,
+    row_x: vec3f,
+    row_y: vec3f,
+    row_z: vec3f,
+}
+
+fn bvh_axis(k: u32) -> vec3f {
+    return select(vec3f(0.0), vec3f(1.0), vec3u(k) == vec3u(0u, 1u, 2u));
+}
+
+fn bvh_ray(ray: Ray) -> BvhRay {
+    let d = ray.dir;
+    let a = abs(d);
+    var kz = 2u;
+    if a.x >= a.y && a.x >= a.z {
+        kz = 0u;
+    } else if a.y >= a.z {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    // Swapping keeps the winding, so both orientations of a triangle are hit.
+    if d[kz] < 0.0 {
+        let k = kx;
+        kx = ky;
+        ky = k;
+    }
+    let sx = d[kx] / d[kz];
+    let sy = d[ky] / d[kz];
+    let sz = 1.0 / d[kz];
+    let ez = bvh_axis(kz);
+    let tiny = select(vec3f(BVH_MIN_DIR_COMPONENT), vec3f(-BVH_MIN_DIR_COMPONENT), d < vec3f(0.0));
+    let safe = select(d, tiny, a < vec3f(BVH_MIN_DIR_COMPONENT));
+    return BvhRay(ray.origin, 1.0 / safe, bvh_axis(kx) - sx * ez, bvh_axis(ky) - sy * ez, sz * ez);
+}
+
+fn bvh_min3(v: vec3f) -> f32 {
+    return min(v.x, min(v.y, v.z));
+}
+
+// Entry distance of the ray into the box, FLT_MAX if it misses it within [tmin, tmax]. (A real entry
+// distance is at most the box's exit distance, finite for any box in a scene.)
+fn bvh_box_entry(bmin: vec3f, bmax: vec3f, r: BvhRay, tmin: f32, tmax: f32) -> f32 {
+    let t0 = (bmin - r.origin) * r.inv_dir;
+    let t1 = (bmax - r.origin) * r.inv_dir;
+    let near = max(max3(min(t0, t1)), tmin);
+    let far = min(bvh_min3(max(t0, t1)) * BVH_BOX_EXIT_SCALE, tmax);
+    return select(FLT_MAX, near, near <= far);
+}
+
+// Watertight ray–triangle test of triangle `i` (BVH order): vec4f(t, u, v, 1) for tmin < t < tmax,
+// else w = 0 (a flag rather than a sentinel t, since tmax may be FLT_MAX or even +inf). An edge
+// function of exactly 0 counts as inside for both triangles sharing the edge (the paper's
+// double-precision fallback does not exist in WGSL): no gaps, at worst a double hit.
+fn bvh_triangle(r: BvhRay, i: u32, tmin: f32, tmax: f32) -> vec4f {
+    let miss = vec4f(0.0);
+    let pa = bvh_tris[3u * i].xyz - r.origin;
+    let pb = bvh_tris[3u * i + 1u].xyz - r.origin;
+    let pc = bvh_tris[3u * i + 2u].xyz - r.origin;
+    let ax = dot(pa, r.row_x);
+    let ay = dot(pa, r.row_y);
+    let bx = dot(pb, r.row_x);
+    let by = dot(pb, r.row_y);
+    let cx = dot(pc, r.row_x);
+    let cy = dot(pc, r.row_y);
+    let eu = cx * by - cy * bx;
+    let ev = ax * cy - ay * cx;
+    let ew = bx * ay - by * ax;
+    if (eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0) {
+        return miss;
+    }
+    let det = eu + ev + ew;
+    if det == 0.0 {
+        return miss;
+    }
+    let t = (eu * dot(pa, r.row_z) + ev * dot(pb, r.row_z) + ew * dot(pc, r.row_z)) / det;
+    if !(t > tmin && t < tmax) {
+        return miss;
+    }
+    return vec4f(t, ev / det, ew / det, 1.0);
+}
+
+// Whether a candidate hit on triangle `i` (BVH order) counts, asking the includer for alpha-tested
+// triangles.
+fn bvh_accept(i: u32, u: f32, v: f32) -> bool {
+    let flags = bitcast<u32>(bvh_tris[3u * i + 1u].w);
+    if (flags & BVH_FLAG_ALPHA_TESTED) == 0u {
+        return true;
+    }
+    return bvh_alpha_test(bitcast<u32>(bvh_tris[3u * i].w), u, v);
+}
+
+// What a visit needs of a node, (left_first << 3) | count, kept from the parent's fetch of both
+// children so that visiting a node loads nothing. On lavapipe every storage load of a lane-varying
+// address is a scalar load per lane, so loads dominate traversal cost. (left_first < 2^29 and
+// count <= 4 are guaranteed by the builder.)
+fn bvh_node_ref(n: BvhNode) -> u32 {
+    return (n.left_first << 3u) | n.count;
+}
+
+// Closest hit with tmin < t < tmax (see the contract above).
 fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
-    var best = Hit(FLT_MAX, 0u, 0.0, 0.0);
-    let n = arrayLength(&bvh_tris) / 3u;
-    var tm = tmax;
-    for (var i = 0u; i < n; i++) {
-        let h = intersect_triangle_mt(ray, i);
-        if h.x > tmin && h.x < tm {
-            tm = h.x;
-            best = Hit(h.x, bitcast<u32>(bvh_tris[i * 3u].w), h.y, h.z);
+    let r = bvh_ray(ray);
+    var hit = Hit(FLT_MAX, BVH_NO_HIT, 0.0, 0.0);
+    var t_best = tmax;
+    // Deferred far children and their entry distances, skipped when a closer hit was found since.
+    var stack_node: array<u32, BVH_STACK_SIZE>;
+    var stack_t: array<f32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    let root = bvh_nodes[0];
+    var current = bvh_node_ref(root);
+    var have_current = bvh_box_entry(root.aabb_min, root.aabb_max, r, tmin, t_best) < FLT_MAX;
+    // One flat loop (no nested descent loop): on a SIMD CPU driver all lanes of a batch then step
+    // together through inner nodes and leaves alike.
+    loop {
+        if !have_current {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            if stack_t[sp] >= t_best {
+                continue;
+            }
+            current = stack_node[sp];
+        }
+        have_current = false;
+        let first = current >> 3u;
+        let count = current & 7u;
+        if count > 0u {
+            for (var i = first; i < first + count; i++) {
+                let h = bvh_triangle(r, i, tmin, t_best);
+                if h.w != 0.0 && bvh_accept(i, h.y, h.z) {
+                    t_best = h.x;
+                    hit = Hit(h.x, bitcast<u32>(bvh_tris[3u * i].w), h.y, h.z);
+                }
+            }
+            continue;
+        }
+        let left = bvh_nodes[first];
+        let right = bvh_nodes[first + 1u];
+        let tl = bvh_box_entry(left.aabb_min, left.aabb_max, r, tmin, t_best);
+        let tr = bvh_box_entry(right.aabb_min, right.aabb_max, r, tmin, t_best);
+        if tl < FLT_MAX && tr < FLT_MAX {
+            // Near child first, so that hits found there cull the far one.
+            let left_near = tl <= tr;
+            current = select(bvh_node_ref(right), bvh_node_ref(left), left_near);
+            stack_node[sp] = select(bvh_node_ref(left), bvh_node_ref(right), left_near);
+            stack_t[sp] = max(tl, tr);
+            sp += 1u;
+            have_current = true;
+        } else if tl < FLT_MAX {
+            current = bvh_node_ref(left);
+            have_current = true;
+        } else if tr < FLT_MAX {
+            current = bvh_node_ref(right);
+            have_current = true;
         }
     }
-    return best;
+    return hit;
 }
 
+// Whether anything is hit with tmin < t < tmax; returns at the first accepted hit.
 fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
-    let n = arrayLength(&bvh_tris) / 3u;
-    for (var i = 0u; i < n; i++) {
-        let h = intersect_triangle_mt(ray, i);
-        if h.x > tmin && h.x < tmax {
-            return true;
+    let r = bvh_ray(ray);
+    var stack: array<u32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    let root = bvh_nodes[0];
+    var current = bvh_node_ref(root);
+    var have_current = bvh_box_entry(root.aabb_min, root.aabb_max, r, tmin, tmax) < FLT_MAX;
+    loop {
+        if !have_current {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            current = stack[sp];
         }
+        have_current = false;
+        let first = current >> 3u;
+        let count = current & 7u;
+        if count > 0u {
+            for (var i = first; i < first + count; i++) {
+                let h = bvh_triangle(r, i, tmin, tmax);
+                if h.w != 0.0 && bvh_accept(i, h.y, h.z) {
+                    return true;
+                }
+            }
+            continue;
+        }
+        let left = bvh_nodes[first];
+        let right = bvh_nodes[first + 1u];
+        let hl = bvh_box_entry(left.aabb_min, left.aabb_max, r, tmin, tmax) < FLT_MAX;
+        let hr = bvh_box_entry(right.aabb_min, right.aabb_max, r, tmin, tmax) < FLT_MAX;
+        // Any order finds an occluder; no distance sort needed.
+        if hl && hr {
+            stack[sp] = bvh_node_ref(right);
+            sp += 1u;
+        }
+        current = select(bvh_node_ref(right), bvh_node_ref(left), hl);
+        have_current = hl || hr;
     }
     return false;
 }

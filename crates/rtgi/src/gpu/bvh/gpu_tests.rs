@@ -1,0 +1,491 @@
+//! GPU tests: `bvh.wgsl` composed into a compute harness, compared with the CPU traversal.
+//!
+//! [`check_gpu_traversal`] works on any triangle list, so further scenes (e.g. the `atrium` built-in
+//! at its largest detail) can be added as one-line tests.
+
+use std::time::Instant;
+
+use glam::Vec3;
+
+use super::test_geometry::{self as geo, RayKind, TestRay};
+use super::tests::{check_invariants, compare_hits};
+use super::*;
+use crate::gpu::readback::read_buffer;
+use crate::shaders::{self, Defines};
+
+/// The harness: one ray per invocation, writing the closest hit and/or the any-hit answer.
+/// MODE 0: both queries, 1: closest hit only, 2: any hit only (the latter two for timing).
+const HARNESS: &str = r#"
+#import common/bvh.wgsl
+
+struct TestRay {
+    origin: vec3f,
+    tmin: f32,
+    dir: vec3f,
+    tmax: f32,
+}
+
+struct TestResult {
+    t: f32,
+    triangle: u32,
+    u: f32,
+    v: f32,
+    occluded: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(1) var<storage, read> bvh_tris: array<vec4f>;
+@group(0) @binding(2) var<storage, read> rays: array<TestRay>;
+@group(0) @binding(3) var<storage, read_write> results: array<TestResult>;
+
+// Matches `alpha_cutout` in gpu_tests.rs: even triangles opaque, odd ones cut out where u < 0.5.
+fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool {
+    return (triangle & 1u) == 0u || u >= 0.5;
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let i = id.x;
+    if i >= arrayLength(&rays) {
+        return;
+    }
+    let r = rays[i];
+    let ray = Ray(r.origin, r.dir);
+    var out = TestResult(FLT_MAX, BVH_NO_HIT, 0.0, 0.0, 0u, 0u, 0u, 0u);
+    if MODE != 2u {
+        let hit = trace_closest(ray, r.tmin, r.tmax);
+        out.t = hit.t;
+        out.triangle = hit.triangle;
+        out.u = hit.u;
+        out.v = hit.v;
+    }
+    if MODE != 1u {
+        out.occluded = u32(trace_any(ray, r.tmin, r.tmax));
+    }
+    results[i] = out;
+}
+"#;
+
+fn alpha_cutout(triangle: u32, u: f32, _v: f32) -> bool {
+    triangle & 1 == 0 || u >= 0.5
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuRay {
+    origin: [f32; 3],
+    tmin: f32,
+    dir: [f32; 3],
+    tmax: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuResult {
+    t: f32,
+    triangle: u32,
+    u: f32,
+    v: f32,
+    occluded: u32,
+    pad: [u32; 3],
+}
+
+impl GpuResult {
+    fn hit(&self) -> Option<Hit> {
+        (self.triangle != u32::MAX).then_some(Hit {
+            t: self.t,
+            triangle: self.triangle,
+            u: self.u,
+            v: self.v,
+        })
+    }
+}
+
+/// A compiled harness pipeline bound to one BVH.
+pub(crate) struct Harness {
+    pipeline: wgpu::ComputePipeline,
+    bvh: GpuBvh,
+}
+
+impl Harness {
+    pub(crate) fn new(ctx: &GpuContext, bvh: &Bvh, mode: u32) -> Result<Harness, GpuError> {
+        Self::with_source(ctx, bvh, mode, HARNESS)
+    }
+
+    fn with_source(ctx: &GpuContext, bvh: &Bvh, mode: u32, source: &str) -> Result<Harness, GpuError> {
+        let module =
+            shaders::create_module(&ctx.device, "bvh harness", source, &Defines::new().u32("MODE", mode))
+                .map_err(|e| GpuError::Other(e.to_string()))?;
+        let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("bvh harness"),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Ok(Harness { pipeline, bvh: GpuBvh::new(ctx, bvh)? })
+    }
+
+    /// Traces `rays` and returns the results and the GPU time (submit to idle, uploads excluded).
+    fn run(&self, ctx: &GpuContext, rays: &[(Ray, f32, f32)]) -> Result<(Vec<GpuResult>, f64), GpuError> {
+        let data: Vec<GpuRay> = rays
+            .iter()
+            .map(|(r, tmin, tmax)| GpuRay {
+                origin: r.origin.into(),
+                tmin: *tmin,
+                dir: r.dir.into(),
+                tmax: *tmax,
+            })
+            .collect();
+        let ray_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("harness rays"),
+            contents: bytemuck::cast_slice(&data),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let size = (rays.len() * std::mem::size_of::<GpuResult>()) as u64;
+        let result_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("harness results"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let [n, t] = self.bvh.bind_entries(0);
+        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("harness"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &[
+                n,
+                t,
+                wgpu::BindGroupEntry { binding: 2, resource: ray_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: result_buffer.as_entire_binding() },
+            ],
+        });
+        ctx.wait_idle()?;
+        let start = Instant::now();
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups((rays.len() as u32).div_ceil(64), 1, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait_idle()?;
+        let seconds = start.elapsed().as_secs_f64();
+        let bytes = read_buffer(ctx, &result_buffer, 0, size)?;
+        Ok((bytemuck::cast_slice(&bytes).to_vec(), seconds))
+    }
+}
+
+/// Agreement counts of one comparison.
+#[derive(Debug, Default)]
+pub(crate) struct GpuReport {
+    pub rays: usize,
+    pub hits: usize,
+    /// Same t, another triangle (shared edges and vertices).
+    pub ties: usize,
+    pub closest_mismatches: usize,
+    pub any_mismatches: usize,
+}
+
+fn compare(
+    label: &str,
+    what: &str,
+    rays: &[TestRay],
+    gpu: &[GpuResult],
+    reference: impl Fn(usize, &TestRay) -> (Option<Hit>, bool),
+) -> GpuReport {
+    let mut report = GpuReport { rays: rays.len(), ..Default::default() };
+    let mut errors = Vec::new();
+    for (i, (r, g)) in rays.iter().zip(gpu).enumerate() {
+        let (want, want_any) = reference(i, r);
+        report.hits += usize::from(want.is_some());
+        if r.kind == RayKind::Miss {
+            assert!(want.is_none(), "{label}: a ray pointing away from the scene hit {want:?}");
+        }
+        match compare_hits(g.hit(), want) {
+            Ok(tie) => report.ties += usize::from(tie),
+            Err(e) => {
+                report.closest_mismatches += 1;
+                errors.push(format!("closest {:?} {:?} [{}, {}]: GPU {e}", r.kind, r.ray, r.tmin, r.tmax));
+            }
+        }
+        if (g.occluded != 0) != want_any {
+            report.any_mismatches += 1;
+            errors.push(format!(
+                "any {:?} {:?} [{}, {}]: GPU {} vs {want_any}",
+                r.kind, r.ray, r.tmin, r.tmax, g.occluded
+            ));
+        }
+    }
+    eprintln!(
+        "{label}: GPU vs {what}: {} rays, {} hits, {} ties, {} closest-hit mismatches, {} any-hit mismatches",
+        report.rays, report.hits, report.ties, report.closest_mismatches, report.any_mismatches
+    );
+    for e in errors.iter().take(10) {
+        eprintln!("  {e}");
+    }
+    report
+}
+
+/// Builds a BVH over `triangles` (odd triangles alpha-tested when `alpha`), traces `n_rays` test rays
+/// on the GPU with `trace_closest` and `trace_any`, and compares them with the CPU BVH traversal and,
+/// for the first `n_brute` rays, with brute force. Panics on any disagreement beyond ties; returns the
+/// reports (CPU BVH, brute force).
+pub(crate) fn check_gpu_traversal(
+    ctx: &GpuContext,
+    label: &str,
+    triangles: &[[Vec3; 3]],
+    alpha: bool,
+    n_rays: usize,
+    n_brute: usize,
+) -> (GpuReport, GpuReport) {
+    let alpha_tested: Vec<bool> = (0..triangles.len()).map(|i| alpha && i % 2 == 1).collect();
+    let start = Instant::now();
+    let bvh = Bvh::build(triangles, Some(&alpha_tested)).expect("BVH build");
+    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+    check_invariants(&bvh, triangles);
+    eprintln!(
+        "{label}: {} triangles, BVH build {build_ms:.0} ms, {} nodes ({} leaves), depth {}, SAH {:.1}, \
+         {:.1} MiB",
+        triangles.len(),
+        bvh.nodes.len(),
+        bvh.leaf_count(),
+        bvh.max_depth,
+        bvh.sah_cost(),
+        bvh.memory_bytes() as f64 / 1048576.0
+    );
+    let harness = Harness::new(ctx, &bvh, 0).unwrap_or_else(|e| panic!("{label}: {e}"));
+    let rays = geo::test_rays(triangles, n_rays, 0x5eed ^ triangles.len() as u64);
+    let input: Vec<_> = rays.iter().map(|r| (r.ray, r.tmin, r.tmax)).collect();
+    let (gpu, seconds) = harness.run(ctx, &input).unwrap_or_else(|e| panic!("{label}: {e}"));
+    eprintln!("{label}: GPU traced {} rays (closest + any) in {:.1} ms", rays.len(), seconds * 1e3);
+
+    let cut_out = std::cell::Cell::new(0usize);
+    let bvh_ref = compare(label, "CPU BVH", &rays, &gpu, |_, r| {
+        let closest = bvh.intersect_with(&r.ray, r.tmin, r.tmax, alpha_cutout);
+        let any = bvh.occluded_with(&r.ray, r.tmin, r.tmax, alpha_cutout);
+        assert_eq!(any, closest.is_some(), "{label}: CPU any-hit and closest-hit disagree on {r:?}");
+        if alpha && closest != bvh.intersect(&r.ray, r.tmin, r.tmax) {
+            cut_out.set(cut_out.get() + 1);
+        }
+        (closest, any)
+    });
+    if alpha {
+        eprintln!("{label}: the alpha test changed {} of {} closest hits", cut_out.get(), rays.len());
+        assert!(cut_out.get() * 50 > rays.len(), "{label}: the alpha test is hardly exercised");
+    }
+    // Brute force is O(rays × triangles): spread it over the cores.
+    let n_brute = n_brute.min(rays.len());
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let chunk = n_brute.div_ceil(threads).max(1);
+    let tested = Some(alpha_tested.as_slice());
+    let brute: Vec<(Option<Hit>, bool)> = std::thread::scope(|s| {
+        let handles: Vec<_> = rays[..n_brute]
+            .chunks(chunk)
+            .map(|part| {
+                s.spawn(move || {
+                    part.iter()
+                        .map(|r| {
+                            let hit = intersect_brute_force(
+                                triangles,
+                                tested,
+                                alpha_cutout,
+                                &r.ray,
+                                r.tmin,
+                                r.tmax,
+                            );
+                            (hit, hit.is_some())
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().expect("brute-force thread")).collect()
+    });
+    let brute_ref = compare(label, "brute force", &rays[..n_brute], &gpu[..n_brute], |i, _| brute[i]);
+    for (name, rep) in [("CPU BVH", &bvh_ref), ("brute force", &brute_ref)] {
+        assert!(
+            rep.closest_mismatches == 0 && rep.any_mismatches == 0,
+            "{label}: GPU disagrees with {name}: {rep:?} (see stderr)"
+        );
+        assert!(rep.ties * 20 <= rep.rays, "{label}: {} ties in {} rays vs {name}", rep.ties, rep.rays);
+    }
+    (bvh_ref, brute_ref)
+}
+
+fn context() -> GpuContext {
+    GpuContext::new(&crate::gpu::GpuOptions::default()).expect("a GPU adapter (lavapipe) for the BVH tests")
+}
+
+#[test]
+fn bvh_harness_shader_validates() {
+    for mode in 0..3 {
+        let module = shaders::validate("bvh harness", HARNESS, &Defines::new().u32("MODE", mode));
+        assert!(module.global_variables.iter().any(|(_, g)| g.name.as_deref() == Some("bvh_nodes")));
+    }
+}
+
+#[test]
+fn bvh_gpu_matches_cpu_on_soup() {
+    let ctx = context();
+    let tris = geo::triangle_soup(30_000, 31);
+    let (r, _) = check_gpu_traversal(&ctx, "GPU soup", &tris, true, 6000, 6000);
+    assert!(r.hits > r.rays / 4);
+}
+
+#[test]
+fn bvh_gpu_matches_cpu_on_sphere_in_box() {
+    let ctx = context();
+    let tris = geo::sphere_in_box();
+    check_gpu_traversal(&ctx, "GPU sphere in box", &tris, false, 6000, 6000);
+}
+
+#[test]
+fn bvh_gpu_empty_bvh_misses() {
+    let ctx = context();
+    let harness = Harness::new(&ctx, &Bvh::build(&[], None).expect("BVH build"), 0).expect("harness");
+    let rays =
+        [(Ray::new(Vec3::ZERO, Vec3::X), 0.0, f32::MAX), (Ray::new(Vec3::ONE, Vec3::NEG_ONE), 0.0, 1e30)];
+    let (out, _) = harness.run(&ctx, &rays).expect("trace");
+    assert!(out.iter().all(|r| r.hit().is_none() && r.occluded == 0), "{out:?}");
+}
+
+#[test]
+fn bvh_gpu_upload_over_limit_names_the_buffer() {
+    let ctx = context();
+    let limit = ctx.limits().max_storage_buffer_binding_size;
+    // A node array just over the limit, without building anything that large.
+    let n = (limit / 32 + 1) as usize;
+    let bvh = Bvh {
+        nodes: vec![bytemuck::Zeroable::zeroed(); n],
+        triangles: vec![build::EMPTY_TRIANGLE],
+        max_depth: 0,
+    };
+    match GpuBvh::new(&ctx, &bvh) {
+        Err(GpuError::OverLimit(m)) => assert!(m.contains("BVH node buffer"), "{m}"),
+        Err(e) => panic!("expected OverLimit, got {e}"),
+        Ok(_) => panic!("a {n}-node BVH fit a {limit}-byte binding"),
+    }
+}
+
+/// The large case: ≥ 1.2 M triangles, GPU vs CPU BVH on 4096+ rays and vs brute force on 256, plus
+/// a throughput measurement for closest-hit queries with coherent and random rays.
+#[test]
+fn bvh_gpu_matches_cpu_on_large_mesh() {
+    let ctx = context();
+    let start = Instant::now();
+    let tris = geo::city(1_200_000, 41);
+    eprintln!(
+        "large mesh: generated {} triangles in {:.0} ms",
+        tris.len(),
+        start.elapsed().as_secs_f64() * 1e3
+    );
+    assert!(tris.len() >= 1_200_000);
+    check_gpu_traversal(&ctx, "GPU large", &tris, false, 4096, 256);
+
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
+    let harness = Harness::new(&ctx, &bvh, 1).expect("harness");
+    let (w, h) = (256, 256);
+    let coherent: Vec<_> = geo::camera_rays(&tris, w, h).into_iter().map(|r| (r, 0.0, f32::MAX)).collect();
+    let random: Vec<_> = geo::test_rays(&tris, (w * h) as usize, 99)
+        .into_iter()
+        .filter(|r| r.kind == RayKind::Inside)
+        .map(|r| (r.ray, 0.0, f32::MAX))
+        .collect();
+    // lavapipe compiles the pipeline at its first dispatch: keep that out of the timings.
+    harness.run(&ctx, &coherent[..64]).expect("warm-up");
+    for (name, rays) in [("coherent (camera)", &coherent), ("random (inside, any direction)", &random)] {
+        let (out, seconds) = harness.run(&ctx, rays).expect("trace");
+        let hits = out.iter().filter(|r| r.hit().is_some()).count();
+        // Spot-check the timed run too.
+        for (i, r) in out.iter().enumerate().step_by(997) {
+            let (ray, tmin, tmax) = rays[i];
+            let want = bvh.intersect(&ray, tmin, tmax);
+            assert!(compare_hits(r.hit(), want).is_ok(), "{name} ray {i}: GPU {:?}, CPU {want:?}", r.hit());
+        }
+        eprintln!(
+            "GPU large: closest-hit {name}: {} rays ({hits} hits) in {:.1} ms = {:.2} Mrays/s",
+            rays.len(),
+            seconds * 1e3,
+            rays.len() as f64 / seconds / 1e6
+        );
+    }
+}
+
+/// Throughput benchmark (not part of the suite): `cargo test --release -p rtgi bvh_gpu_benchmark --
+/// --ignored --nocapture`.
+#[test]
+#[ignore]
+fn bvh_gpu_benchmark() {
+    let ctx = context();
+    let tris = geo::city(1_200_000, 41);
+    for _ in 0..std::env::var("RTGI_BVH_BUILDS").map_or(2, |n| n.parse().unwrap_or(2)) {
+        let start = Instant::now();
+        let bvh = Bvh::build(&tris, None).expect("BVH build");
+        eprintln!(
+            "build {:.0} ms, {} nodes, {} leaves, SAH {:.1}",
+            start.elapsed().as_secs_f64() * 1e3,
+            bvh.nodes.len(),
+            bvh.leaf_count(),
+            bvh.sah_cost()
+        );
+    }
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
+    let coherent: Vec<_> =
+        geo::camera_rays(&tris, 512, 512).into_iter().map(|r| (r, 0.0, f32::MAX)).collect();
+    let random: Vec<_> = geo::test_rays(&tris, 6 * 65536, 99)
+        .into_iter()
+        .filter(|r| r.kind == RayKind::Inside)
+        .map(|r| (r.ray, 0.0, f32::MAX))
+        .collect();
+    let start = process_cpu_seconds();
+    let hits = coherent.iter().filter(|(r, a, b)| bvh.intersect(r, *a, *b).is_some()).count();
+    let s = process_cpu_seconds() - start;
+    eprintln!("CPU 1 thread coherent: {:.2} Mrays/s ({hits} hits)", coherent.len() as f64 / s / 1e6);
+    // RTGI_BVH_WGSL=path benchmarks a variant of bvh.wgsl without rebuilding.
+    let source = match std::env::var("RTGI_BVH_WGSL") {
+        Ok(path) => HARNESS.replace(
+            "#import common/bvh.wgsl",
+            &std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}")),
+        ),
+        Err(_) => HARNESS.to_string(),
+    };
+    let modes: Vec<u32> = std::env::var("RTGI_BVH_MODES")
+        .map(|m| m.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or(vec![1, 2]);
+    for mode in modes {
+        let harness = Harness::with_source(&ctx, &bvh, mode, &source).expect("harness");
+        harness.run(&ctx, &coherent[..64]).expect("warm-up");
+        for (name, rays) in [("coherent", &coherent), ("random", &random)] {
+            let mut best = f64::MAX;
+            let mut best_cpu = f64::MAX;
+            for _ in 0..3 {
+                let cpu = process_cpu_seconds();
+                best = best.min(harness.run(&ctx, rays).expect("trace").1);
+                best_cpu = best_cpu.min(process_cpu_seconds() - cpu);
+            }
+            // On a shared machine wall time depends on the other load; CPU time consumed by the driver
+            // threads does not (much), so it is the figure to compare variants by.
+            eprintln!(
+                "GPU mode {mode} {name}: {} rays, {:.2} Mrays/s wall, {:.2} Mrays per CPU-second",
+                rays.len(),
+                rays.len() as f64 / best / 1e6,
+                rays.len() as f64 / best_cpu / 1e6
+            );
+        }
+    }
+}
+
+/// User + system CPU time of this process (all threads, lavapipe's included), Linux only.
+fn process_cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15 (in ticks).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest.split_whitespace().skip(11).take(2).filter_map(|x| x.parse().ok()).collect();
+    f.iter().sum::<f64>() / 100.0
+}

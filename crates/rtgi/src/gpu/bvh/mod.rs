@@ -1,0 +1,311 @@
+//! The bounding volume hierarchy every technique and the path tracer trace rays against.
+//!
+//! - [`Bvh::build`]: binned SAH build on the CPU (deterministic, parallel with std threads).
+//! - [`Bvh::intersect`] / [`Bvh::occluded`]: CPU traversal with the same watertight ray–triangle test
+//!   (Woop, Benthin & Wald 2013) as `shaders/common/bvh.wgsl`, so CPU references and GPU results agree
+//!   to rounding; [`intersect_brute_force`] checks both.
+//! - [`GpuBvh`]: the two storage buffers `bvh.wgsl` reads (`bvh_nodes`, `bvh_tris`).
+//!
+//! GPU layout (both `#[repr(C)]`, matching WGSL's storage layout):
+//! - [`BvhNode`], 32 bytes: `aabb_min, left_first, aabb_max, count`. `count > 0`: a leaf holding
+//!   triangles `[left_first, left_first + count)` in BVH order; `count == 0`: an internal node whose
+//!   children are `left_first` and `left_first + 1`. Siblings are adjacent so one index addresses both
+//!   and the traversal fetches both boxes from one 64-byte line. The root is node 0. An empty input
+//!   gives a single leaf holding one degenerate triangle, which never hits, so shaders need no
+//!   special case (and no buffer is zero-sized).
+//! - [`BvhTriangle`], 48 bytes (3 × `vec4f`): vertices in BVH order; the `w` lanes carry the original
+//!   triangle index (v0), flags (v1, bit 0 = alpha-tested) and padding (v2). Keeping the vertices here
+//!   instead of indexing the scene's vertex buffer saves a dependent load per triangle test.
+//!
+//! Triangle indices are global: the position in the flat list given to [`Bvh::build`], which for a
+//! scene is [`SceneTriangles`] (meshes concatenated in order, as the GPU scene upload does).
+
+mod build;
+mod traverse;
+
+#[cfg(test)]
+pub(crate) mod gpu_tests;
+#[cfg(test)]
+pub(crate) mod test_geometry;
+#[cfg(test)]
+mod tests;
+
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use super::{GpuContext, GpuError};
+use crate::scene::{AlphaMode, Scene};
+
+pub use traverse::{intersect_brute_force, occluded_brute_force};
+
+/// Entries of the traversal stack in `bvh.wgsl` (and the CPU traversal). The builder keeps the tree
+/// depth at or below this, which bounds the stack: at most one deferred sibling per level. SAH trees
+/// of millions of triangles are 25–30 deep; a smaller stack is less private memory per GPU thread.
+pub const BVH_STACK_SIZE: u32 = 32;
+
+/// Most triangles a BVH can hold: node references in `bvh.wgsl` pack `left_first` into 29 bits, and
+/// a BVH has fewer than 2n nodes. (Far beyond what fits a storage buffer binding anyway.)
+pub const BVH_MAX_TRIANGLES: usize = 1 << 28;
+
+/// Flag bit of [`BvhTriangle::flags`]: the triangle's material is alpha-masked, so a hit on it is
+/// confirmed by the includer's `bvh_alpha_test`.
+pub const BVH_FLAG_ALPHA_TESTED: u32 = 1;
+
+/// A BVH node as the GPU reads it (see the module documentation).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BvhNode {
+    pub aabb_min: [f32; 3],
+    pub left_first: u32,
+    pub aabb_max: [f32; 3],
+    pub count: u32,
+}
+
+impl BvhNode {
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+}
+
+/// A triangle in BVH order as the GPU reads it (see the module documentation).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BvhTriangle {
+    pub v0: [f32; 3],
+    /// Index of the triangle in the list given to [`Bvh::build`].
+    pub index: u32,
+    pub v1: [f32; 3],
+    /// [`BVH_FLAG_ALPHA_TESTED`].
+    pub flags: u32,
+    pub v2: [f32; 3],
+    pub pad: u32,
+}
+
+impl BvhTriangle {
+    pub fn vertices(&self) -> [Vec3; 3] {
+        [Vec3::from(self.v0), Vec3::from(self.v1), Vec3::from(self.v2)]
+    }
+
+    pub fn is_alpha_tested(&self) -> bool {
+        self.flags & BVH_FLAG_ALPHA_TESTED != 0
+    }
+}
+
+/// A ray; `dir` need not be normalised (hit distances are in units of `dir`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Ray { origin, dir }
+    }
+}
+
+/// A ray–triangle hit: `origin + t·dir = (1 − u − v)·v0 + u·v1 + v·v2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Original (global) triangle index.
+    pub triangle: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// A scene's triangles as one flat list, the input of [`Bvh::build`] and the order of the GPU scene's
+/// concatenated index buffers.
+#[derive(Clone, Debug, Default)]
+pub struct SceneTriangles {
+    pub triangles: Vec<[Vec3; 3]>,
+    /// Per triangle: its material uses [`AlphaMode::Mask`].
+    pub alpha_tested: Vec<bool>,
+    /// First global triangle index of each mesh, plus the total at the end.
+    pub mesh_offsets: Vec<u32>,
+}
+
+impl SceneTriangles {
+    /// Concatenates the meshes of `scene` in order. The scene must be valid ([`Scene::validate`]).
+    pub fn from_scene(scene: &Scene) -> Self {
+        let total = scene.triangle_count();
+        let mut out = SceneTriangles {
+            triangles: Vec::with_capacity(total),
+            alpha_tested: Vec::with_capacity(total),
+            mesh_offsets: Vec::with_capacity(scene.meshes.len() + 1),
+        };
+        for mesh in &scene.meshes {
+            out.mesh_offsets.push(out.triangles.len() as u32);
+            let masked = scene
+                .materials
+                .get(mesh.material as usize)
+                .is_some_and(|m| matches!(m.alpha_mode, AlphaMode::Mask { .. }));
+            for tri in mesh.indices.chunks_exact(3) {
+                out.triangles.push([
+                    mesh.positions[tri[0] as usize],
+                    mesh.positions[tri[1] as usize],
+                    mesh.positions[tri[2] as usize],
+                ]);
+                out.alpha_tested.push(masked);
+            }
+        }
+        out.mesh_offsets.push(out.triangles.len() as u32);
+        out
+    }
+
+    /// The mesh a global triangle index belongs to (`None` past the end).
+    pub fn mesh_of(&self, triangle: u32) -> Option<usize> {
+        if triangle >= *self.mesh_offsets.last()? {
+            return None;
+        }
+        // partition_point finds the first mesh starting after `triangle`; empty meshes share offsets
+        // with their successor, so this lands on the mesh that actually holds it.
+        Some(self.mesh_offsets.partition_point(|&o| o <= triangle) - 1)
+    }
+
+    /// The material index of a global triangle index.
+    pub fn material_of(&self, scene: &Scene, triangle: u32) -> Option<u32> {
+        self.mesh_of(triangle).and_then(|m| scene.meshes.get(m)).map(|m| m.material)
+    }
+}
+
+/// A BVH over a triangle list, in the GPU layout.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bvh {
+    pub nodes: Vec<BvhNode>,
+    pub triangles: Vec<BvhTriangle>,
+    /// Depth of the deepest leaf (the root has depth 0); at most [`BVH_STACK_SIZE`].
+    pub max_depth: u32,
+}
+
+impl Bvh {
+    /// Builds a BVH over `triangles`; `alpha_tested`, if given, flags triangles by the same index
+    /// (missing entries count as opaque). Deterministic: the same input gives the same BVH, whatever
+    /// the number of threads. Fails with [`GpuError::OverLimit`] over [`BVH_MAX_TRIANGLES`].
+    pub fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>) -> Result<Bvh, GpuError> {
+        if triangles.len() > BVH_MAX_TRIANGLES {
+            return Err(GpuError::OverLimit(format!(
+                "the scene has {} triangles; the BVH holds at most {BVH_MAX_TRIANGLES}",
+                triangles.len()
+            )));
+        }
+        Ok(build::build(triangles, alpha_tested))
+    }
+
+    /// Builds the BVH of a (valid) scene, triangle indices as in [`SceneTriangles::from_scene`].
+    pub fn from_scene(scene: &Scene) -> Result<Bvh, GpuError> {
+        let tris = SceneTriangles::from_scene(scene);
+        Self::build(&tris.triangles, Some(&tris.alpha_tested))
+    }
+
+    /// Number of real triangles (an empty BVH holds one degenerate placeholder that never hits).
+    pub fn triangle_count(&self) -> usize {
+        if self.nodes.len() == 1 && self.triangles.len() == 1 && self.triangles[0] == build::EMPTY_TRIANGLE {
+            0
+        } else {
+            self.triangles.len()
+        }
+    }
+
+    pub fn leaf_count(&self) -> usize {
+        self.nodes.iter().filter(|n| n.is_leaf()).count()
+    }
+
+    /// Bytes of the two GPU buffers.
+    pub fn memory_bytes(&self) -> u64 {
+        (std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.triangles.as_slice()))
+            as u64
+    }
+
+    /// SAH cost of the tree (traversal steps 1, triangle tests 1, relative to the root's area): a
+    /// quality figure for comparing builds, lower is better.
+    pub fn sah_cost(&self) -> f64 {
+        let half_area = |n: &BvhNode| {
+            let e = (Vec3::from(n.aabb_max) - Vec3::from(n.aabb_min)).as_dvec3();
+            (e.x * e.y + e.y * e.z + e.z * e.x).max(0.0)
+        };
+        let root = half_area(&self.nodes[0]);
+        if root <= 0.0 {
+            return 0.0;
+        }
+        self.nodes
+            .iter()
+            .map(|n| half_area(n) * if n.is_leaf() { f64::from(n.count) } else { 1.0 })
+            .sum::<f64>()
+            / root
+    }
+}
+
+/// The BVH on the GPU: the storage buffers `bvh.wgsl` expects as `bvh_nodes` and `bvh_tris`.
+pub struct GpuBvh {
+    pub nodes: wgpu::Buffer,
+    pub triangles: wgpu::Buffer,
+    pub node_count: u32,
+    pub triangle_count: u32,
+}
+
+impl GpuBvh {
+    /// Uploads `bvh`; fails with [`GpuError::OverLimit`] naming the buffer if it exceeds the device.
+    pub fn new(ctx: &GpuContext, bvh: &Bvh) -> Result<GpuBvh, GpuError> {
+        let nodes: &[u8] = bytemuck::cast_slice(&bvh.nodes);
+        let tris: &[u8] = bytemuck::cast_slice(&bvh.triangles);
+        let max_buffer = ctx.limits().max_buffer_size;
+        for (what, bytes) in [("BVH node buffer", nodes.len()), ("BVH triangle buffer", tris.len())] {
+            ctx.check_storage_size(what, bytes as u64)?;
+            if bytes as u64 > max_buffer {
+                return Err(GpuError::OverLimit(format!(
+                    "{what} needs {:.1} MiB, over the device's max_buffer_size of {:.1} MiB",
+                    bytes as f64 / 1048576.0,
+                    max_buffer as f64 / 1048576.0
+                )));
+            }
+        }
+        // Allocation failures are reported asynchronously by wgpu; the scope turns them into a result.
+        let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let create = |label, contents| {
+            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let node_buffer = create("bvh nodes", nodes);
+        let tri_buffer = create("bvh triangles", tris);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Other(format!("allocating the BVH buffers: {e}")));
+        }
+        Ok(GpuBvh {
+            nodes: node_buffer,
+            triangles: tri_buffer,
+            node_count: bvh.nodes.len() as u32,
+            triangle_count: bvh.triangles.len() as u32,
+        })
+    }
+
+    /// Layout entries for `bvh_nodes` at `first_binding` and `bvh_tris` at `first_binding + 1`.
+    pub fn layout_entries(
+        first_binding: u32,
+        visibility: wgpu::ShaderStages,
+    ) -> [wgpu::BindGroupLayoutEntry; 2] {
+        let entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        [entry(first_binding), entry(first_binding + 1)]
+    }
+
+    /// Bind group entries matching [`GpuBvh::layout_entries`].
+    pub fn bind_entries(&self, first_binding: u32) -> [wgpu::BindGroupEntry<'_>; 2] {
+        [
+            wgpu::BindGroupEntry { binding: first_binding, resource: self.nodes.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: first_binding + 1, resource: self.triangles.as_entire_binding() },
+        ]
+    }
+}

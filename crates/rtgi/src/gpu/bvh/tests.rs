@@ -1,0 +1,303 @@
+//! CPU tests: build invariants, determinism, CPU traversal against brute force, watertightness.
+
+use std::time::Instant;
+
+use glam::Vec3;
+
+use super::test_geometry::{self as geo, RayKind, Rng};
+use super::*;
+
+/// Checks the structural invariants the GPU traversal relies on; panics with a description.
+pub(crate) fn check_invariants(bvh: &Bvh, triangles: &[[Vec3; 3]]) {
+    let n = triangles.len();
+    assert_eq!(bvh.triangles.len(), n.max(1));
+    assert!(bvh.max_depth <= BVH_STACK_SIZE, "depth {} over the traversal stack", bvh.max_depth);
+    let mut seen = vec![0u32; n];
+    let mut reached = vec![false; bvh.nodes.len()];
+    let mut stack = vec![(0usize, 0u32)];
+    let mut deepest = 0;
+    reached[0] = true;
+    while let Some((i, depth)) = stack.pop() {
+        let node = &bvh.nodes[i];
+        deepest = deepest.max(depth);
+        let (lo, hi) = (Vec3::from(node.aabb_min), Vec3::from(node.aabb_max));
+        let contains = |p: Vec3| p.cmpge(lo).all() && p.cmple(hi).all();
+        if node.is_leaf() {
+            assert!(node.count as usize <= 4, "leaf {i} holds {} triangles", node.count);
+            for tri in &bvh.triangles[node.left_first as usize..(node.left_first + node.count) as usize] {
+                if n == 0 {
+                    continue;
+                }
+                seen[tri.index as usize] += 1;
+                assert_eq!(tri.vertices(), triangles[tri.index as usize], "triangle {} moved", tri.index);
+                assert!(tri.vertices().into_iter().all(contains), "leaf {i} does not contain {}", tri.index);
+                assert_eq!(tri.flags & !BVH_FLAG_ALPHA_TESTED, 0);
+            }
+        } else {
+            for c in [node.left_first as usize, node.left_first as usize + 1] {
+                assert!(c < bvh.nodes.len() && !reached[c], "node {i}: bad or shared child {c}");
+                reached[c] = true;
+                let child = &bvh.nodes[c];
+                assert!(
+                    contains(Vec3::from(child.aabb_min)) && contains(Vec3::from(child.aabb_max)),
+                    "node {i} does not contain child {c}"
+                );
+                stack.push((c, depth + 1));
+            }
+        }
+    }
+    assert!(reached.iter().all(|&r| r), "unreachable nodes");
+    assert!(seen.iter().all(|&s| s == 1), "a triangle is in no leaf or in several");
+    assert_eq!(deepest, bvh.max_depth);
+}
+
+/// Agreement of a traversal with the brute-force reference.
+#[derive(Debug, Default)]
+pub(crate) struct Agreement {
+    pub rays: usize,
+    pub hits: usize,
+    /// Same hit distance, another triangle (a ray through a shared edge or vertex, or coplanar).
+    pub ties: usize,
+    pub mismatches: usize,
+}
+
+/// Hit distances agree to 1e-4 relative (identical arithmetic gives identical results; the tolerance
+/// is for the GPU, whose compiler may contract multiply-adds).
+pub(crate) fn same_t(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-4 * a.abs().max(b.abs()).max(1e-3)
+}
+
+/// Compares two closest-hit answers; `Ok(true)` for a tie on another triangle.
+pub(crate) fn compare_hits(got: Option<Hit>, want: Option<Hit>) -> Result<bool, String> {
+    match (got, want) {
+        (None, None) => Ok(false),
+        (Some(g), Some(w)) if g.triangle == w.triangle && same_t(g.t, w.t) => {
+            if (g.u - w.u).abs() > 1e-3 || (g.v - w.v).abs() > 1e-3 {
+                return Err(format!("barycentrics differ: {g:?} vs {w:?}"));
+            }
+            Ok(false)
+        }
+        (Some(g), Some(w)) if same_t(g.t, w.t) => Ok(true),
+        (g, w) => Err(format!("{g:?} vs {w:?}")),
+    }
+}
+
+fn check_against_brute_force(label: &str, triangles: &[[Vec3; 3]], n_rays: usize, seed: u64) -> Agreement {
+    let start = Instant::now();
+    let bvh = Bvh::build(triangles, None).expect("BVH build");
+    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+    check_invariants(&bvh, triangles);
+    let rays = geo::test_rays(triangles, n_rays, seed);
+    let mut a = Agreement { rays: rays.len(), ..Default::default() };
+    let mut errors = Vec::new();
+    for r in &rays {
+        let want = intersect_brute_force(triangles, None, |_, _, _| true, &r.ray, r.tmin, r.tmax);
+        let got = bvh.intersect(&r.ray, r.tmin, r.tmax);
+        a.hits += usize::from(want.is_some());
+        if r.kind == RayKind::Miss {
+            assert!(want.is_none(), "{label}: a ray pointing away from the scene hit {want:?}");
+        }
+        match compare_hits(got, want) {
+            Ok(tie) => a.ties += usize::from(tie),
+            Err(e) => {
+                a.mismatches += 1;
+                errors.push(format!("{:?} {:?} [{}, {}]: {e}", r.kind, r.ray, r.tmin, r.tmax));
+            }
+        }
+        let occluded = bvh.occluded(&r.ray, r.tmin, r.tmax);
+        if occluded != want.is_some() {
+            a.mismatches += 1;
+            errors.push(format!("{:?} {:?}: occluded {occluded}, closest {want:?}", r.kind, r.ray));
+        }
+    }
+    eprintln!(
+        "{label}: {} triangles, build {build_ms:.1} ms, {} nodes, depth {}, SAH {:.1}; {} rays, {} hits, \
+         {} ties, {} mismatches",
+        triangles.len(),
+        bvh.nodes.len(),
+        bvh.max_depth,
+        bvh.sah_cost(),
+        a.rays,
+        a.hits,
+        a.ties,
+        a.mismatches
+    );
+    assert!(
+        errors.is_empty(),
+        "{label}: CPU BVH disagrees with brute force:\n{}",
+        errors[..errors.len().min(10)].join("\n")
+    );
+    // Ties need a hit on an edge or vertex; they must stay rare or the tie rule hides real errors.
+    assert!(a.ties * 20 <= a.rays, "{label}: {} ties in {} rays", a.ties, a.rays);
+    a
+}
+
+#[test]
+fn bvh_cpu_traversal_matches_brute_force_on_soups() {
+    for (n, seed) in [(1, 1), (3, 2), (5, 3), (37, 4), (1000, 5), (20_000, 6)] {
+        let tris = geo::triangle_soup(n, seed);
+        let a = check_against_brute_force(&format!("soup {n}"), &tris, 3000, seed + 100);
+        assert!(n < 1000 || a.hits > a.rays / 4, "too few hits to test anything: {a:?}");
+    }
+}
+
+#[test]
+fn bvh_cpu_traversal_matches_brute_force_on_structured_meshes() {
+    let tris = geo::sphere_in_box();
+    check_against_brute_force("sphere in box", &tris, 6000, 11);
+    // Degenerate layouts: all triangles coplanar, and many identical triangles (no SAH split exists).
+    let mut plane = Vec::new();
+    geo::grid(&mut plane, 40, Vec3::ZERO, Vec3::X, Vec3::Z, |_, _| 0.0);
+    check_against_brute_force("plane", &plane, 3000, 12);
+    let same = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 300];
+    let bvh = Bvh::build(&same, None).expect("BVH build");
+    check_invariants(&bvh, &same);
+    let hit = bvh.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z), 0.0, f32::MAX);
+    assert!(hit.is_some_and(|h| h.t == 1.0 && (h.u - 0.2).abs() < 1e-6 && (h.v - 0.2).abs() < 1e-6));
+}
+
+#[test]
+fn bvh_depth_stays_within_the_stack_on_pathological_input() {
+    // Geometrically growing triangles along a line: binned SAH peels off one or two per level, which
+    // unchecked makes a tree hundreds of levels deep.
+    let tris: Vec<[Vec3; 3]> = (0..3000)
+        .map(|i| {
+            let x = 1.02f32.powi(i);
+            let s = x * 0.01;
+            [Vec3::new(x, 0.0, 0.0), Vec3::new(x + s, s, 0.0), Vec3::new(x, s, s)]
+        })
+        .collect();
+    let a = check_against_brute_force("geometric", &tris, 2000, 13);
+    assert!(a.hits > 50, "{a:?}");
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
+    assert!(bvh.max_depth >= BVH_STACK_SIZE - 2, "the input no longer stresses the depth budget");
+}
+
+#[test]
+fn bvh_is_watertight_on_closed_meshes() {
+    let tris = geo::sphere_in_box();
+    let bvh = Bvh::build(&tris, None).expect("BVH build");
+    let (lo, hi, center, radius) = geo::SPHERE_IN_BOX;
+    let mut rng = Rng::new(21);
+    let mut rays = 0;
+    while rays < 20_000 {
+        let o = rng.in_box(lo + 0.01, hi - 0.01);
+        if (o - center).length() < radius + 0.01 {
+            continue;
+        }
+        // Half towards vertices and edges of random triangles, where cracks would be.
+        let dir = if rays % 2 == 0 {
+            rng.unit_vector()
+        } else {
+            let t = tris[rng.index(tris.len())];
+            t[rng.index(3)] + (t[rng.index(3)] - t[rng.index(3)]) * rng.f32() * 0.5 - o
+        };
+        let ray = Ray::new(o, dir);
+        assert!(bvh.intersect(&ray, 0.0, f32::MAX).is_some(), "crack: {ray:?} escaped the closed box");
+        rays += 1;
+    }
+}
+
+#[test]
+fn bvh_build_is_deterministic() {
+    let tris = geo::city(200_000, 7);
+    let alpha: Vec<bool> = (0..tris.len()).map(|i| i % 7 == 0).collect();
+    let a = Bvh::build(&tris, Some(&alpha)).expect("BVH build");
+    let b = Bvh::build(&tris, Some(&alpha)).expect("BVH build");
+    check_invariants(&a, &tris);
+    assert!(a == b, "two builds of the same input differ");
+    assert_eq!(
+        a.triangles.iter().filter(|t| t.is_alpha_tested()).count(),
+        alpha.iter().filter(|&&x| x).count()
+    );
+    for t in &a.triangles {
+        assert_eq!(t.is_alpha_tested(), alpha[t.index as usize]);
+    }
+}
+
+#[test]
+fn bvh_alpha_test_filters_hits() {
+    // Two parallel quads; the near one alpha-tested and "cut out" where u < 0.5.
+    let near = [[Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, -1.0, 1.0), Vec3::new(-1.0, 1.0, 1.0)]];
+    let far = [[Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)]];
+    let tris = [near[0], far[0]];
+    let alpha = [true, false];
+    let bvh = Bvh::build(&tris, Some(&alpha)).expect("BVH build");
+    let cutout = |_: u32, u: f32, _: f32| u >= 0.5;
+    let opaque_part = Ray::new(Vec3::new(0.5, -0.8, 2.0), Vec3::NEG_Z);
+    let cut_part = Ray::new(Vec3::new(-0.5, -0.8, 2.0), Vec3::NEG_Z);
+    assert_eq!(bvh.intersect_with(&opaque_part, 0.0, 9.0, cutout).map(|h| h.triangle), Some(0));
+    assert_eq!(bvh.intersect_with(&cut_part, 0.0, 9.0, cutout).map(|h| h.triangle), Some(1));
+    assert!(!bvh.occluded_with(&cut_part, 0.0, 1.5, cutout));
+    assert!(bvh.occluded_with(&opaque_part, 0.0, 1.5, cutout));
+    let bf = intersect_brute_force(&tris, Some(&alpha), cutout, &cut_part, 0.0, 9.0);
+    assert_eq!(bf.map(|h| h.triangle), Some(1));
+}
+
+#[test]
+fn bvh_empty_and_tiny_inputs() {
+    let bvh = Bvh::build(&[], None).expect("BVH build");
+    assert_eq!(bvh.triangle_count(), 0);
+    check_invariants(&bvh, &[]);
+    let ray = Ray::new(Vec3::new(0.1, 0.1, 1.0), Vec3::NEG_Z);
+    assert!(bvh.intersect(&ray, 0.0, f32::MAX).is_none() && !bvh.occluded(&ray, 0.0, f32::MAX));
+    let one = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
+    let bvh = Bvh::build(&one, None).expect("BVH build");
+    assert_eq!((bvh.triangle_count(), bvh.nodes.len()), (1, 1));
+    let hit = bvh.intersect(&ray, 0.0, f32::MAX).expect("hits the triangle");
+    assert_eq!((hit.t, hit.triangle), (1.0, 0));
+    assert!((hit.u - 0.1).abs() < 1e-6 && (hit.v - 0.1).abs() < 1e-6);
+    // The interval is open at both ends.
+    assert!(bvh.intersect(&ray, 1.0, f32::MAX).is_none() && bvh.intersect(&ray, 0.0, 1.0).is_none());
+}
+
+#[test]
+fn bvh_scene_triangles_concatenate_meshes() {
+    use crate::scene::{Material, Mesh};
+    let quad = |material| Mesh {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE],
+        normals: vec![Vec3::Z; 4],
+        tangents: vec![glam::Vec4::X; 4],
+        uvs: vec![glam::Vec2::ZERO; 4],
+        indices: vec![0, 1, 2, 1, 3, 2],
+        material,
+        ..Default::default()
+    };
+    let empty = Mesh { material: 0, ..Default::default() };
+    let mut masked = Material::diffuse("leaf", Vec3::ONE);
+    masked.alpha_mode = crate::scene::AlphaMode::Mask { cutoff: 0.5 };
+    let scene = Scene {
+        meshes: vec![quad(0), empty, quad(1)],
+        materials: vec![Material::diffuse("a", Vec3::ONE), masked],
+        ..Default::default()
+    };
+    scene.validate().expect("valid scene");
+    let st = SceneTriangles::from_scene(&scene);
+    assert_eq!(st.triangles.len(), 4);
+    assert_eq!(st.alpha_tested, [false, false, true, true]);
+    assert_eq!(st.mesh_offsets, [0, 2, 2, 4]);
+    assert_eq!([0, 1, 2, 3, 4].map(|t| st.mesh_of(t)), [Some(0), Some(0), Some(2), Some(2), None]);
+    assert_eq!(st.material_of(&scene, 3), Some(1));
+    assert_eq!(st.triangles[3], [Vec3::X, Vec3::ONE, Vec3::Y]);
+    let bvh = Bvh::from_scene(&scene).expect("BVH build");
+    assert_eq!(bvh.triangles.iter().filter(|t| t.is_alpha_tested()).count(), 2);
+}
+
+#[test]
+fn bvh_wgsl_constants_match_rust() {
+    let src = crate::shaders::COMMON_MODULES
+        .iter()
+        .find(|(p, _)| *p == "common/bvh.wgsl")
+        .map(|(_, s)| *s)
+        .expect("bvh.wgsl is registered");
+    for line in [
+        format!("const BVH_STACK_SIZE: u32 = {BVH_STACK_SIZE}u;"),
+        format!("const BVH_FLAG_ALPHA_TESTED: u32 = {BVH_FLAG_ALPHA_TESTED}u;"),
+        format!("const BVH_BOX_EXIT_SCALE: f32 = {:?};", traverse::BOX_EXIT_SCALE),
+        format!("const BVH_MIN_DIR_COMPONENT: f32 = {:?};", traverse::MIN_DIR_COMPONENT),
+    ] {
+        assert!(src.contains(&line), "bvh.wgsl lacks `{line}`");
+    }
+    assert_eq!(std::mem::size_of::<BvhNode>(), 32);
+    assert_eq!(std::mem::size_of::<BvhTriangle>(), 48);
+}
