@@ -121,7 +121,10 @@ fn scratch_dump() {
                 .collect()
         })
         .unwrap_or_default();
-    let scene = match std::env::var("SCRATCH_SCENE") { Ok(n) => rtgi::scene::builtin::build(&n, &[]).unwrap(), Err(_) => small_scene() };
+    let scene = match std::env::var("SCRATCH_SCENE") {
+        Ok(n) => rtgi::scene::builtin::build(&n, &[]).unwrap(),
+        Err(_) => small_scene(),
+    };
     let out = render(&ctx, &scene, &s, &mut |_, _| {}).expect("render");
     let img = image::RgbImage::from_fn(256, 192, |x, y| {
         let p = out.image.pixel(x, y);

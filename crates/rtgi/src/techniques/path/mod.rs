@@ -62,6 +62,7 @@ struct PathTracer {
     bind_group: wgpu::BindGroup,
     ray_counter: wgpu::Buffer,
     spp: u32,
+    slot_stride: u32,
     rays: u64,
     samples: u64,
     pass_ms: f64,
@@ -83,12 +84,35 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
                 },
                 count: None,
             },
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: wgpu::BufferSize::new(4),
+                },
+                count: None,
+            },
         ],
     });
     let ray_counter = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("ray counter"),
         contents: &[0u8; 4],
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    });
+    let p = setup.params;
+    let spp = p.int("spp") as u32;
+    // One 256-byte slot per sample index, selected with a dynamic offset per dispatch.
+    let stride = setup.ctx.limits().min_uniform_buffer_offset_alignment.max(4) as usize;
+    let mut slots = vec![0u8; stride * spp as usize];
+    for i in 0..spp as usize {
+        slots[i * stride..i * stride + 4].copy_from_slice(&(i as u32).to_le_bytes());
+    }
+    let sample_indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("sample indices"),
+        contents: &slots,
+        usage: wgpu::BufferUsages::UNIFORM,
     });
     let view = setup.output.create_view(&Default::default());
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -97,15 +121,21 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         entries: &[
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
             wgpu::BindGroupEntry { binding: 1, resource: ray_counter.as_entire_binding() },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &sample_indices,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(4),
+                }),
+            },
         ],
     });
-    let p = setup.params;
     let nee = match p.choice("nee") {
         "light" => 1,
         "brdf" => 2,
         _ => 0,
     };
-    let spp = p.int("spp") as u32;
     let defines = Defines::new()
         .u32("SPP", spp)
         .i32("MAX_BOUNCES", p.int("max_bounces") as i32)
@@ -119,7 +149,16 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
     )?;
-    Ok(Box::new(PathTracer { pipeline, bind_group, ray_counter, spp, rays: 0, samples: 0, pass_ms: 0.0 }))
+    Ok(Box::new(PathTracer {
+        pipeline,
+        bind_group,
+        ray_counter,
+        spp,
+        slot_stride: stride as u32,
+        rays: 0,
+        samples: 0,
+        pass_ms: 0.0,
+    }))
 }
 
 impl Technique for PathTracer {
@@ -127,14 +166,18 @@ impl Technique for PathTracer {
         fc.ctx.queue.write_buffer(&self.ray_counter, 0, &[0u8; 4]);
         let start = std::time::Instant::now();
         profiler.pass(fc.ctx, "path trace", |encoder| {
-            compute::dispatch_pixels(
-                encoder,
-                "path trace",
-                &self.pipeline,
-                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.bind_group],
-                fc.frame.width,
-                fc.frame.height,
-            );
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("path trace"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &fc.gpu_scene.bind_group, &[]);
+            pass.set_bind_group(1, &fc.frame.bind_group, &[]);
+            let (wx, wy) = (fc.frame.width.div_ceil(compute::TILE), fc.frame.height.div_ceil(compute::TILE));
+            for sample in 0..self.spp {
+                pass.set_bind_group(2, &self.bind_group, &[sample * self.slot_stride]);
+                pass.dispatch_workgroups(wx, wy, 1);
+            }
         })?;
         self.pass_ms += start.elapsed().as_secs_f64() * 1e3;
         let count = readback::read_buffer(fc.ctx, &self.ray_counter, 0, 4)?;
