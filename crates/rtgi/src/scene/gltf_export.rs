@@ -6,6 +6,8 @@
 //! ignore. Geometry is already in world space, so every mesh node has an identity transform.
 
 mod compare;
+#[cfg(test)]
+pub(crate) mod tests;
 
 use std::collections::BTreeMap;
 use std::path::Path;
