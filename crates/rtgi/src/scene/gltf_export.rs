@@ -240,7 +240,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
     let right = forward.cross(cam.up).normalize_or(forward.any_orthonormal_vector());
     let up = right.cross(forward);
     let rotation = Quat::from_mat3(&Mat3::from_cols(right, up, -forward)).normalize();
-    let camera_extras = raw_json(&serde_json::json!({ TARGET_DISTANCE_KEY: to_target.length() }))?;
+    let camera_extras = extras(TARGET_DISTANCE_KEY, &to_target.length())?;
     scene_nodes.push(b.node(json::Node {
         camera: Some(Index::new(0)),
         name: Some("camera".into()),
@@ -251,7 +251,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
     }));
 
     let environment = EnvironmentJson::from_environment(&scene.environment);
-    let scene_extras = raw_json(&serde_json::json!({ ENVIRONMENT_KEY: environment }))?;
+    let scene_extras = extras(ENVIRONMENT_KEY, &environment)?;
     b.root.scenes.push(json::Scene {
         extensions: None,
         extras: Some(scene_extras),
@@ -297,12 +297,22 @@ fn le_f32(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
     values.into_iter().flat_map(f32::to_le_bytes).collect()
 }
 
+/// A JSON array of the shortest decimals that read back as the same f32s (a plain f32 → f64 widening
+/// would print `0.10000000149011612`).
+fn json_f32s(v: Vec3) -> serde_json::Value {
+    v.to_array().iter().map(|x| x.to_string().parse::<f64>().unwrap_or(f64::from(*x))).collect()
+}
+
 fn non_empty(s: &str) -> Option<String> {
     (!s.is_empty()).then(|| s.to_string())
 }
 
-fn raw_json(value: &serde_json::Value) -> Result<Box<RawValue>, String> {
-    RawValue::from_string(value.to_string()).map_err(|e| format!("cannot encode extras: {e}"))
+/// `{key: value}` as raw JSON. Serialised straight to text (not through `serde_json::Value`, which
+/// widens f32 to f64) so that floats read `0.1`, not `0.10000000149011612`.
+fn extras(key: &str, value: &impl Serialize) -> Result<Box<RawValue>, String> {
+    let map = BTreeMap::from([(key, value)]);
+    let text = serde_json::to_string(&map).map_err(|e| format!("cannot encode extras: {e}"))?;
+    RawValue::from_string(text).map_err(|e| format!("cannot encode extras: {e}"))
 }
 
 fn encode_png(t: &super::Texture) -> Result<Vec<u8>, String> {
@@ -363,8 +373,8 @@ impl Builder {
             extensions: None,
             extras: None,
             type_: Checked::Valid(type_),
-            min: bounds.map(|(lo, _)| serde_json::json!(lo.to_array())),
-            max: bounds.map(|(_, hi)| serde_json::json!(hi.to_array())),
+            min: bounds.map(|(lo, _)| json_f32s(lo)),
+            max: bounds.map(|(_, hi)| json_f32s(hi)),
             name: None,
             normalized: false,
             sparse: None,
