@@ -1,1 +1,491 @@
 //! Writing a scene as glTF 2.0 binary (.glb).
+//!
+//! The output is self-contained (textures embedded as PNG in the BIN chunk) and requires no
+//! extension, so any glTF viewer opens it; rtgi-specific data that glTF cannot express (the
+//! environment, the camera's look-at distance) travels in `extras`, which other tools preserve or
+//! ignore. Geometry is already in world space, so every mesh node has an identity transform.
+
+mod compare;
+#[cfg(test)]
+pub(crate) mod tests;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::{Mat3, Quat, Vec3};
+use gltf::json;
+use gltf::json::validation::{Checked, USize64};
+use gltf::json::{Index, extras::RawValue};
+use serde::{Deserialize, Serialize};
+
+use super::{AlphaMode, Environment, Light, Scene, TextureRef};
+use crate::error::SceneError;
+
+pub use compare::{assert_scenes_equivalent, scene_differences};
+
+/// Key in `scenes[0].extras` holding the environment (see [`EnvironmentJson`]).
+pub const ENVIRONMENT_KEY: &str = "rtgi_environment";
+/// Key in a camera node's `extras` holding the distance from the camera to its look-at target, which
+/// glTF cameras do not have.
+pub const TARGET_DISTANCE_KEY: &str = "rtgi_target_distance";
+
+/// The JSON form of [`Environment`] stored under [`ENVIRONMENT_KEY`]. Maps are stored by path, not by
+/// value: an HDR map can be hundreds of megabytes of floats.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub(crate) enum EnvironmentJson {
+    None,
+    Uniform {
+        radiance: [f32; 3],
+    },
+    Sky {
+        sun_direction: [f32; 3],
+        sun_radiance: [f32; 3],
+        sky_radiance: [f32; 3],
+        ground_radiance: [f32; 3],
+    },
+    Map {
+        path: String,
+        #[serde(default = "one")]
+        intensity: f32,
+    },
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+impl EnvironmentJson {
+    fn from_environment(env: &Environment) -> Self {
+        match env {
+            Environment::None => EnvironmentJson::None,
+            Environment::Uniform(r) => EnvironmentJson::Uniform { radiance: r.to_array() },
+            Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance } => {
+                EnvironmentJson::Sky {
+                    sun_direction: sun_direction.to_array(),
+                    sun_radiance: sun_radiance.to_array(),
+                    sky_radiance: sky_radiance.to_array(),
+                    ground_radiance: ground_radiance.to_array(),
+                }
+            }
+            Environment::Map(map) => {
+                EnvironmentJson::Map { path: map.path.clone(), intensity: map.intensity }
+            }
+        }
+    }
+}
+
+/// Writes `scene` to `path` as a self-contained `.glb`.
+pub fn export(scene: &Scene, path: &Path) -> Result<(), SceneError> {
+    let glb = to_glb(scene).map_err(|m| SceneError::file(path, m))?;
+    std::fs::write(path, glb).map_err(|e| SceneError::file(path, format!("cannot write file: {e}")))
+}
+
+/// The bytes of the `.glb` that [`export`] writes.
+///
+/// Meshes without triangles are left out: glTF accessors must not be empty.
+pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
+    scene.validate().map_err(|e| format!("cannot export an invalid scene: {e}"))?;
+    let mut b = Builder::default();
+    b.root.asset = json::Asset { generator: Some("rtgi".into()), ..Default::default() };
+
+    for (i, texture) in scene.textures.iter().enumerate() {
+        let png = encode_png(texture).map_err(|e| format!("texture {i} '{}': {e}", texture.name))?;
+        let view = b.view(&png, None);
+        b.root.images.push(json::Image {
+            buffer_view: Some(view),
+            mime_type: Some(json::image::MimeType("image/png".into())),
+            name: non_empty(&texture.name),
+            uri: None,
+            extensions: None,
+            extras: None,
+        });
+        b.root.textures.push(json::Texture {
+            name: non_empty(&texture.name),
+            sampler: None,
+            source: Index::new(i as u32),
+            extensions: None,
+            extras: None,
+        });
+    }
+
+    let mut uses_emissive_strength = false;
+    for m in &scene.materials {
+        let info = |t: &Option<TextureRef>| {
+            t.map(|t| json::texture::Info {
+                index: Index::new(t.texture),
+                tex_coord: t.tex_coord,
+                extensions: None,
+                extras: None,
+            })
+        };
+        // glTF clamps emissiveFactor to [0, 1]; brighter emitters need KHR_materials_emissive_strength.
+        let peak = m.emissive.max_element();
+        let (emissive_factor, extensions) = if peak > 1.0 {
+            uses_emissive_strength = true;
+            ((m.emissive / peak).to_array(), Some(emissive_strength_extension(peak)))
+        } else {
+            (m.emissive.to_array(), None)
+        };
+        let (alpha_mode, alpha_cutoff) = match m.alpha_mode {
+            AlphaMode::Opaque => (json::material::AlphaMode::Opaque, None),
+            AlphaMode::Mask { cutoff } => {
+                (json::material::AlphaMode::Mask, Some(json::material::AlphaCutoff(cutoff)))
+            }
+            AlphaMode::Blend => (json::material::AlphaMode::Blend, None),
+        };
+        b.root.materials.push(json::Material {
+            alpha_cutoff,
+            alpha_mode: Checked::Valid(alpha_mode),
+            double_sided: m.double_sided,
+            name: non_empty(&m.name),
+            pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+                base_color_factor: json::material::PbrBaseColorFactor(m.base_color.to_array()),
+                base_color_texture: info(&m.base_color_texture),
+                metallic_factor: json::material::StrengthFactor(m.metallic),
+                roughness_factor: json::material::StrengthFactor(m.roughness),
+                metallic_roughness_texture: info(&m.metallic_roughness_texture),
+                ..Default::default()
+            },
+            normal_texture: m.normal_texture.map(|t| json::material::NormalTexture {
+                index: Index::new(t.texture),
+                scale: m.normal_scale,
+                tex_coord: t.tex_coord,
+                extensions: None,
+                extras: None,
+            }),
+            emissive_texture: info(&m.emissive_texture),
+            emissive_factor: json::material::EmissiveFactor(emissive_factor),
+            extensions,
+            ..Default::default()
+        });
+    }
+
+    let mut scene_nodes = Vec::new();
+    for mesh in scene.meshes.iter().filter(|m| m.indices.len() >= 3) {
+        let mesh_index = b.mesh(mesh);
+        scene_nodes.push(b.node(json::Node {
+            mesh: Some(mesh_index),
+            name: non_empty(&mesh.name),
+            ..Default::default()
+        }));
+    }
+
+    let mut lights = Vec::new();
+    for (i, light) in scene.lights.iter().enumerate() {
+        use json::extensions::scene::khr_lights_punctual as khr;
+        let (kind, position, direction, radiance, spot) = match *light {
+            Light::Point { position, intensity } => (khr::Type::Point, Some(position), None, intensity, None),
+            Light::Spot { position, direction, intensity, inner_angle, outer_angle } => (
+                khr::Type::Spot,
+                Some(position),
+                Some(direction),
+                intensity,
+                Some(khr::Spot { inner_cone_angle: inner_angle, outer_cone_angle: outer_angle }),
+            ),
+            Light::Directional { direction, irradiance } => {
+                (khr::Type::Directional, None, Some(direction), irradiance, None)
+            }
+        };
+        // glTF splits radiance into a colour in [0, 1] and a scalar intensity.
+        let peak = radiance.max_element();
+        let (color, intensity) =
+            if peak > 0.0 { ((radiance / peak).to_array(), peak) } else { ([1.0; 3], 0.0) };
+        lights.push(khr::Light {
+            color,
+            extensions: None,
+            extras: None,
+            intensity,
+            name: Some(format!("{} light {i}", light.kind_name())),
+            range: None,
+            spot,
+            type_: Checked::Valid(kind),
+        });
+        // Lights shine along their node's −Z.
+        let rotation = direction.map(|d| Quat::from_rotation_arc(Vec3::NEG_Z, d.normalize_or(Vec3::NEG_Z)));
+        scene_nodes.push(b.node(json::Node {
+            name: Some(format!("{} light {i}", light.kind_name())),
+            translation: position.map(|p| p.to_array()),
+            rotation: rotation.map(|q| json::scene::UnitQuaternion(q.to_array())),
+            extensions: Some(light_extension(i)),
+            ..Default::default()
+        }));
+    }
+    if !lights.is_empty() {
+        b.root.extensions = Some(lights_extension(lights));
+        b.root.extensions_used.push("KHR_lights_punctual".into());
+    }
+    if uses_emissive_strength {
+        b.root.extensions_used.push("KHR_materials_emissive_strength".into());
+    }
+
+    let cam = &scene.camera;
+    b.root.cameras.push(json::Camera {
+        name: Some("camera".into()),
+        orthographic: None,
+        perspective: Some(json::camera::Perspective {
+            aspect_ratio: None,
+            yfov: cam.yfov,
+            zfar: Some(cam.zfar),
+            znear: cam.znear,
+            extensions: None,
+            extras: None,
+        }),
+        type_: Checked::Valid(json::camera::Type::Perspective),
+        extensions: None,
+        extras: None,
+    });
+    let to_target = cam.target - cam.position;
+    let forward = to_target.normalize_or(Vec3::NEG_Z);
+    let right = forward.cross(cam.up).normalize_or(forward.any_orthonormal_vector());
+    let up = right.cross(forward);
+    let rotation = Quat::from_mat3(&Mat3::from_cols(right, up, -forward)).normalize();
+    let camera_extras = extras(TARGET_DISTANCE_KEY, &to_target.length())?;
+    scene_nodes.push(b.node(json::Node {
+        camera: Some(Index::new(0)),
+        name: Some("camera".into()),
+        translation: Some(cam.position.to_array()),
+        rotation: Some(json::scene::UnitQuaternion(rotation.to_array())),
+        extras: Some(camera_extras),
+        ..Default::default()
+    }));
+
+    let environment = EnvironmentJson::from_environment(&scene.environment);
+    let scene_extras = extras(ENVIRONMENT_KEY, &environment)?;
+    b.root.scenes.push(json::Scene {
+        extensions: None,
+        extras: Some(scene_extras),
+        name: non_empty(&scene.name),
+        nodes: scene_nodes,
+    });
+    b.root.scene = Some(Index::new(0));
+    b.finish()
+}
+
+// The `..Default::default()` in these three keeps them compiling if more `gltf` features (which add
+// fields to the extension structs) are enabled later.
+#[allow(clippy::needless_update)]
+fn light_extension(light: usize) -> json::extensions::scene::Node {
+    use json::extensions::scene::khr_lights_punctual::KhrLightsPunctual;
+    json::extensions::scene::Node {
+        khr_lights_punctual: Some(KhrLightsPunctual { light: Index::new(light as u32) }),
+        ..Default::default()
+    }
+}
+
+#[allow(clippy::needless_update)]
+fn emissive_strength_extension(strength: f32) -> json::extensions::material::Material {
+    use json::extensions::material::{EmissiveStrength, EmissiveStrengthFactor};
+    json::extensions::material::Material {
+        emissive_strength: Some(EmissiveStrength { emissive_strength: EmissiveStrengthFactor(strength) }),
+        ..Default::default()
+    }
+}
+
+#[allow(clippy::needless_update)]
+fn lights_extension(
+    lights: Vec<json::extensions::scene::khr_lights_punctual::Light>,
+) -> json::extensions::Root {
+    json::extensions::Root {
+        khr_lights_punctual: Some(json::extensions::root::KhrLightsPunctual { lights }),
+        ..Default::default()
+    }
+}
+
+/// Little-endian bytes, as glTF requires whatever the host's byte order.
+fn le_f32(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    values.into_iter().flat_map(f32::to_le_bytes).collect()
+}
+
+/// A JSON array of the shortest decimals that read back as the same f32s (a plain f32 → f64 widening
+/// would print `0.10000000149011612`).
+fn json_f32s(v: Vec3) -> serde_json::Value {
+    v.to_array().iter().map(|x| x.to_string().parse::<f64>().unwrap_or(f64::from(*x))).collect()
+}
+
+fn non_empty(s: &str) -> Option<String> {
+    (!s.is_empty()).then(|| s.to_string())
+}
+
+/// `{key: value}` as raw JSON. Serialised straight to text (not through `serde_json::Value`, which
+/// widens f32 to f64) so that floats read `0.1`, not `0.10000000149011612`.
+fn extras(key: &str, value: &impl Serialize) -> Result<Box<RawValue>, String> {
+    let map = BTreeMap::from([(key, value)]);
+    let text = serde_json::to_string(&map).map_err(|e| format!("cannot encode extras: {e}"))?;
+    RawValue::from_string(text).map_err(|e| format!("cannot encode extras: {e}"))
+}
+
+fn encode_png(t: &super::Texture) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&t.rgba8, t.width, t.height, image::ExtendedColorType::Rgba8)
+        .map_err(|e| format!("cannot encode PNG: {e}"))?;
+    Ok(png)
+}
+
+/// Accumulates the JSON document and the BIN chunk.
+#[derive(Default)]
+struct Builder {
+    root: json::Root,
+    bin: Vec<u8>,
+}
+
+impl Builder {
+    /// Appends `bytes` to the BIN chunk as a new buffer view, 4-byte aligned as accessors require.
+    fn view(&mut self, bytes: &[u8], target: Option<json::buffer::Target>) -> Index<json::buffer::View> {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        let offset = self.bin.len();
+        self.bin.extend_from_slice(bytes);
+        self.root.push(json::buffer::View {
+            buffer: Index::new(0),
+            byte_length: USize64(bytes.len() as u64),
+            byte_offset: Some(USize64(offset as u64)),
+            byte_stride: None,
+            name: None,
+            target: target.map(Checked::Valid),
+            extensions: None,
+            extras: None,
+        })
+    }
+
+    fn accessor(
+        &mut self,
+        bytes: &[u8],
+        count: usize,
+        component: json::accessor::ComponentType,
+        type_: json::accessor::Type,
+        bounds: Option<(Vec3, Vec3)>,
+    ) -> Index<json::Accessor> {
+        use json::accessor::ComponentType;
+        let target = match component {
+            ComponentType::U32 => json::buffer::Target::ElementArrayBuffer,
+            _ => json::buffer::Target::ArrayBuffer,
+        };
+        let view = self.view(bytes, Some(target));
+        self.root.push(json::Accessor {
+            buffer_view: Some(view),
+            byte_offset: None,
+            count: USize64(count as u64),
+            component_type: Checked::Valid(json::accessor::GenericComponentType(component)),
+            extensions: None,
+            extras: None,
+            type_: Checked::Valid(type_),
+            min: bounds.map(|(lo, _)| json_f32s(lo)),
+            max: bounds.map(|(_, hi)| json_f32s(hi)),
+            name: None,
+            normalized: false,
+            sparse: None,
+        })
+    }
+
+    fn mesh(&mut self, mesh: &super::Mesh) -> Index<json::Mesh> {
+        use json::accessor::{ComponentType, Type};
+        use json::mesh::Semantic;
+        let n = mesh.positions.len();
+        let (lo, hi) = mesh
+            .positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let mut attributes = BTreeMap::new();
+        let pos = self.accessor(
+            &le_f32(mesh.positions.iter().flat_map(|v| v.to_array())),
+            n,
+            ComponentType::F32,
+            Type::Vec3,
+            Some((lo, hi)),
+        );
+        attributes.insert(Checked::Valid(Semantic::Positions), pos);
+        let nrm = self.accessor(
+            &le_f32(mesh.normals.iter().flat_map(|v| v.to_array())),
+            n,
+            ComponentType::F32,
+            Type::Vec3,
+            None,
+        );
+        attributes.insert(Checked::Valid(Semantic::Normals), nrm);
+        let tan = self.accessor(
+            &le_f32(mesh.tangents.iter().flat_map(|v| v.to_array())),
+            n,
+            ComponentType::F32,
+            Type::Vec4,
+            None,
+        );
+        attributes.insert(Checked::Valid(Semantic::Tangents), tan);
+        let uv = self.accessor(
+            &le_f32(mesh.uvs.iter().flat_map(|v| v.to_array())),
+            n,
+            ComponentType::F32,
+            Type::Vec2,
+            None,
+        );
+        attributes.insert(Checked::Valid(Semantic::TexCoords(0)), uv);
+        let indices = self.accessor(
+            &mesh.indices.iter().flat_map(|i| i.to_le_bytes()).collect::<Vec<u8>>(),
+            mesh.indices.len(),
+            ComponentType::U32,
+            Type::Scalar,
+            None,
+        );
+        self.root.push(json::Mesh {
+            extensions: None,
+            extras: None,
+            name: non_empty(&mesh.name),
+            primitives: vec![json::mesh::Primitive {
+                attributes,
+                extensions: None,
+                extras: None,
+                indices: Some(indices),
+                material: Some(Index::new(mesh.material)),
+                mode: Checked::Valid(json::mesh::Mode::Triangles),
+                targets: None,
+            }],
+            weights: None,
+        })
+    }
+
+    fn node(&mut self, node: json::Node) -> Index<json::Node> {
+        self.root.push(node)
+    }
+
+    /// Serialises the GLB container: 12-byte header, JSON chunk padded with spaces, BIN chunk padded
+    /// with zeros (both to 4 bytes, as the spec requires).
+    fn finish(mut self) -> Result<Vec<u8>, String> {
+        if !self.bin.is_empty() {
+            self.root.buffers.push(json::Buffer {
+                byte_length: USize64(self.bin.len() as u64),
+                name: None,
+                uri: None,
+                extensions: None,
+                extras: None,
+            });
+        }
+        let mut json =
+            json::serialize::to_vec(&self.root).map_err(|e| format!("cannot serialise glTF JSON: {e}"))?;
+        while !json.len().is_multiple_of(4) {
+            json.push(b' ');
+        }
+        let mut bin = self.bin;
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
+        let total =
+            u32::try_from(total).map_err(|_| "scene too large for a .glb file (over 4 GiB)".to_string())?;
+        let mut out = Vec::with_capacity(total as usize);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&total.to_le_bytes());
+        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&json);
+        if !bin.is_empty() {
+            out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+            out.extend_from_slice(b"BIN\0");
+            out.extend_from_slice(&bin);
+        }
+        Ok(out)
+    }
+}
