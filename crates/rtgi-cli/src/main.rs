@@ -30,6 +30,9 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene with one technique and write the image (.png tone-mapped, .exr linear).
+    // A repeated option overrides the earlier one, so wrappers (scripts/demo.sh) can pass defaults first
+    // and the user's arguments after them.
+    #[command(args_override_self = true)]
     Render(render::RenderArgs),
     /// List the built-in scenes and the techniques with their parameters.
     List,

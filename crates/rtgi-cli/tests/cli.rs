@@ -143,6 +143,12 @@ fn export_scene_rejects_unknown_scenes_and_bad_outputs() {
 }
 
 #[test]
+fn later_options_override_earlier_ones() {
+    let line = expect_error(&rtgi(&["render", "--size", "64x64", "--size", "0x0"]));
+    assert!(line.starts_with("error: --size '0x0'"), "{line}");
+}
+
+#[test]
 fn usage_errors_keep_clap_exit_code() {
     let out = rtgi(&["render", "--no-such-flag"]);
     assert_eq!(out.status.code(), Some(2));
