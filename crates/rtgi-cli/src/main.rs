@@ -1,1 +1,118 @@
-fn main() {}
+//! `rtgi`: the command-line front end of the rtgi library.
+//!
+//! Every failure reaches the user as one line `error: <message>` on stderr. Exit codes: 0 success; 1 an
+//! error rtgi reports (bad values, files, GPU, rendering); 2 a command line clap cannot parse (unknown
+//! flag, missing or mistyped argument); 101 an internal error (a bug: a panic, still printed as one line).
+
+mod list;
+mod render;
+mod scene_spec;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use clap::{Parser, Subcommand};
+
+use scene_spec::SceneSpec;
+
+const EXIT_CODES: &str = "Exit codes: 0 success, 1 error (one line 'error: ...' on stderr), \
+                          2 command-line syntax error, 101 internal error (a bug).";
+
+#[derive(Parser)]
+#[command(name = "rtgi", version, about = "rtgi: a real-time global illumination laboratory", after_help = EXIT_CODES)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene with one technique and write the image (.png tone-mapped, .exr linear).
+    // A repeated option overrides the earlier one, so wrappers (scripts/demo.sh) can pass defaults first
+    // and the user's arguments after them.
+    #[command(args_override_self = true)]
+    Render(render::RenderArgs),
+    /// List the built-in scenes and the techniques with their parameters.
+    List,
+    /// Write a built-in scene as binary glTF (.glb).
+    ExportScene {
+        /// Built-in scene, optionally with parameters: NAME or NAME:key=value,...
+        name: String,
+        /// Output file; must end in .glb.
+        out: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    install_panic_hook();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render::run(&args),
+        Command::List => list::run(),
+        Command::ExportScene { name, out } => export_scene(&name, &out),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // `{:#}` joins anyhow's context chain with ": "; `one_line` folds messages (e.g. wgpu
+            // validation reports) that carry their own line breaks.
+            let _ = writeln!(std::io::stderr(), "error: {}", one_line(&format!("{e:#}")));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Turns a panic into the same one-line shape as other errors, so a bug never shows a Rust backtrace
+/// dump to users; `RUST_BACKTRACE=1` still prints one for developers.
+fn install_panic_hook() {
+    std::panic::set_hook(Box::new(|info| {
+        let message = info.payload_as_str().unwrap_or("(no message)");
+        let location =
+            info.location().map(|l| format!(" (at {}:{})", l.file(), l.line())).unwrap_or_default();
+        let mut stderr = std::io::stderr().lock();
+        let _ = writeln!(stderr, "error: internal error: {}{location}", one_line(message));
+        if std::env::var_os("RUST_BACKTRACE").is_some_and(|v| v != "0") {
+            let _ = writeln!(stderr, "{}", std::backtrace::Backtrace::force_capture());
+        }
+        // Exiting here (instead of unwinding) also covers panics on threads the library spawns.
+        std::process::exit(101);
+    }));
+}
+
+fn one_line(text: &str) -> String {
+    text.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+}
+
+fn print_warnings(scene: &rtgi::scene::Scene) {
+    for warning in &scene.warnings {
+        eprintln!("warning: {}", one_line(warning));
+    }
+}
+
+/// Creates the folder `path` goes into, so `--out results/a.png` works in a fresh checkout.
+fn create_parent(path: &Path) -> anyhow::Result<()> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create the folder {}", path.display(), dir.display())),
+        _ => Ok(()),
+    }
+}
+
+fn export_scene(name: &str, out: &Path) -> anyhow::Result<()> {
+    let spec = SceneSpec::parse(name).map_err(|e| anyhow::anyhow!("scene {e}"))?;
+    if let SceneSpec::File(path) = &spec {
+        bail!("'{}' is a file; export-scene exports built-in scenes (see `rtgi list`)", path.display());
+    }
+    if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")) {
+        bail!("{}: export-scene writes binary glTF; the output file must end in .glb", out.display());
+    }
+    spec.validate()?;
+    let scene = spec.load()?;
+    print_warnings(&scene);
+    create_parent(out)?;
+    rtgi::scene::gltf_export::export(&scene, out)?;
+    println!("wrote {} ({} triangles, {} lights)", out.display(), scene.triangle_count(), scene.lights.len());
+    Ok(())
+}

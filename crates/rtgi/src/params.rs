@@ -74,7 +74,7 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let w: u32 = w.trim().parse().map_err(|_| format!("'{text}': width '{w}' is not a whole number"))?;
     let h: u32 = h.trim().parse().map_err(|_| format!("'{text}': height '{h}' is not a whole number"))?;
     if w == 0 || h == 0 {
-        return Err(format!("size '{text}' is empty; width and height must be at least 1"));
+        return Err(format!("'{text}' is empty; width and height must be at least 1"));
     }
     Ok((w, h))
 }

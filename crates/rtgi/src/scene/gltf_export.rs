@@ -110,6 +110,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
     }
 
     let mut uses_emissive_strength = false;
+    let mut uses_specular = false;
     for m in &scene.materials {
         let info = |t: &Option<TextureRef>| {
             t.map(|t| json::texture::Info {
@@ -121,12 +122,16 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         };
         // glTF clamps emissiveFactor to [0, 1]; brighter emitters need KHR_materials_emissive_strength.
         let peak = m.emissive.max_element();
-        let (emissive_factor, extensions) = if peak > 1.0 {
+        let (emissive_factor, mut extensions) = if peak > 1.0 {
             uses_emissive_strength = true;
             ((m.emissive / peak).to_array(), Some(emissive_strength_extension(peak)))
         } else {
             (m.emissive.to_array(), None)
         };
+        if m.specular != 1.0 {
+            uses_specular = true;
+            extensions.get_or_insert_with(Default::default).specular = Some(specular_extension(m.specular));
+        }
         let (alpha_mode, alpha_cutoff) = match m.alpha_mode {
             AlphaMode::Opaque => (json::material::AlphaMode::Opaque, None),
             AlphaMode::Mask { cutoff } => {
@@ -215,6 +220,9 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         b.root.extensions = Some(lights_extension(lights));
         b.root.extensions_used.push("KHR_lights_punctual".into());
     }
+    if uses_specular {
+        b.root.extensions_used.push("KHR_materials_specular".into());
+    }
     if uses_emissive_strength {
         b.root.extensions_used.push("KHR_materials_emissive_strength".into());
     }
@@ -279,6 +287,17 @@ fn emissive_strength_extension(strength: f32) -> json::extensions::material::Mat
     json::extensions::material::Material {
         emissive_strength: Some(EmissiveStrength { emissive_strength: EmissiveStrengthFactor(strength) }),
         ..Default::default()
+    }
+}
+
+fn specular_extension(factor: f32) -> json::extensions::material::Specular {
+    use json::extensions::material::{Specular, SpecularFactor};
+    Specular {
+        specular_factor: SpecularFactor(factor),
+        specular_texture: None,
+        specular_color_factor: Default::default(),
+        specular_color_texture: None,
+        extras: Default::default(),
     }
 }
 

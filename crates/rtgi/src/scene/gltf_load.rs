@@ -34,11 +34,15 @@ use crate::error::SceneError;
 
 /// glTF extensions rtgi implements. Files that *require* anything else are refused; files that merely
 /// *use* something else load with a warning.
-pub const SUPPORTED_EXTENSIONS: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization"];
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_mesh_quantization",
+];
 
 /// Material-level extensions that are read (others are reported per material).
-const MATERIAL_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+const MATERIAL_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength", "KHR_materials_specular"];
 
 /// Loads a `.gltf` or `.glb` file into a world-space [`Scene`].
 ///
@@ -491,6 +495,21 @@ impl Loader<'_> {
             .as_ref()
             .and_then(|e| e.emissive_strength.as_ref())
             .map_or(1.0, |s| s.emissive_strength.0);
+        // KHR_materials_specular: rtgi models the factor (the strength of the dielectric specular layer);
+        // a coloured or textured specular is reported, not silently approximated.
+        let specular_ext = m.extensions.as_ref().and_then(|e| e.specular.as_ref());
+        let specular = specular_ext.map_or(1.0, |s| s.specular_factor.0);
+        if let Some(s) = specular_ext {
+            if s.specular_texture.is_some()
+                || s.specular_color_texture.is_some()
+                || s.specular_color_factor.0 != [1.0; 3]
+            {
+                out.warnings.about(
+                    "KHR_materials_specular colour and textures ignored (only specularFactor is used)",
+                    label.clone(),
+                );
+            }
+        }
         let alpha_mode = match m.alpha_mode {
             Checked::Valid(json::material::AlphaMode::Opaque) => AlphaMode::Opaque,
             Checked::Valid(json::material::AlphaMode::Mask) => {
@@ -536,6 +555,7 @@ impl Loader<'_> {
             emissive_texture,
             normal_texture,
             normal_scale: m.normal_texture.as_ref().map_or(1.0, |t| t.scale),
+            specular,
             alpha_mode,
             double_sided: m.double_sided,
         })

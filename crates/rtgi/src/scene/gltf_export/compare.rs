@@ -147,6 +147,7 @@ fn compare_material(d: &mut Diffs, label: &str, a: &Scene, x: &Material, b: &Sce
     d.f32(&format!("{label} roughness"), x.roughness, y.roughness, FACTOR_TOL);
     d.vec3(&format!("{label} emissive"), x.emissive, y.emissive, FACTOR_TOL);
     d.f32(&format!("{label} normal_scale"), x.normal_scale, y.normal_scale, FACTOR_TOL);
+    d.f32(&format!("{label} specular"), x.specular, y.specular, FACTOR_TOL);
     match (x.alpha_mode, y.alpha_mode) {
         (crate::scene::AlphaMode::Mask { cutoff: p }, crate::scene::AlphaMode::Mask { cutoff: q }) => {
             d.f32(&format!("{label} alpha cutoff"), p, q, FACTOR_TOL)

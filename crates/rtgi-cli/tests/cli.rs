@@ -1,0 +1,227 @@
+//! Runs the built `rtgi` binary the way users do and checks what they see: exit codes and one-line
+//! errors, never a panic.
+//!
+//! Every test here fails before the GPU is needed, so the suite runs on machines without one.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn rtgi_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_rtgi"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the rtgi binary runs")
+}
+
+/// Runs in a fresh folder so default outputs (out.png) never land in the source tree.
+fn rtgi(args: &[&str]) -> Output {
+    let dir = tempfile::tempdir().expect("temp dir");
+    rtgi_in(dir.path(), args)
+}
+
+/// Asserts the documented failure shape (exit 1, exactly one stderr line `error: ...`, no panic) and
+/// returns that line.
+fn expect_error(out: &Output) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked") && !stderr.contains("internal error"), "panic: {stderr}");
+    assert_eq!(out.status.code(), Some(1), "exit status; stderr: {stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "one error line expected, got: {stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    lines[0].to_string()
+}
+
+fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn list_prints_both_sections_and_every_entry() {
+    let out = rtgi(&["list"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = stdout(&out);
+    assert!(text.contains("Built-in scenes"), "{text}");
+    assert!(text.contains("Techniques"), "{text}");
+    for scene in rtgi::scene::builtin::list() {
+        assert!(text.contains(scene.name), "{} missing:\n{text}", scene.name);
+        for p in scene.params {
+            assert!(text.contains(&format!("{}={}", p.name, p.default)), "{}:\n{text}", p.name);
+        }
+    }
+    for technique in rtgi::techniques::registry() {
+        assert!(text.contains(technique.name), "{} missing:\n{text}", technique.name);
+    }
+}
+
+#[test]
+fn list_names_cornell() {
+    let text = stdout(&rtgi(&["list"]));
+    let scenes = text.split("Techniques").next().unwrap_or_default();
+    assert!(scenes.contains("cornell"), "{text}");
+}
+
+#[test]
+fn list_names_direct() {
+    let text = stdout(&rtgi(&["list"]));
+    let techniques = text.split("Techniques").nth(1).unwrap_or_default();
+    assert!(techniques.contains("direct"), "{text}");
+}
+
+#[test]
+fn bad_sizes_are_one_line_errors() {
+    for size in ["0x0", "0x16", "16", "axb", "-1x4", "99999999999x2"] {
+        // `--size=` so that clap takes "-1x4" as the value rather than as a flag.
+        let line = expect_error(&rtgi(&["render", &format!("--size={size}")]));
+        assert!(line.starts_with(&format!("error: --size '{size}'")), "{line}");
+    }
+}
+
+#[test]
+fn zero_frames_is_an_error() {
+    let line = expect_error(&rtgi(&["render", "--frames", "0"]));
+    assert!(line.contains("--frames"), "{line}");
+}
+
+#[test]
+fn unsupported_output_format_is_refused_before_rendering() {
+    let line = expect_error(&rtgi(&["render", "--out", "picture.jpg"]));
+    assert!(line.contains("picture.jpg") && line.contains(".png") && line.contains(".exr"), "{line}");
+}
+
+#[test]
+fn set_without_equals_is_an_error() {
+    let line = expect_error(&rtgi(&["render", "--set", "novalue"]));
+    assert!(line.contains("--set 'novalue'") && line.contains("key=value"), "{line}");
+}
+
+#[test]
+fn malformed_scene_specs_are_errors() {
+    let line = expect_error(&rtgi(&["render", "--scene", "cornell:detail"]));
+    assert!(line.contains("--scene") && line.contains("key=value"), "{line}");
+    let line = expect_error(&rtgi(&["render", "--scene", "model.obj"]));
+    assert!(line.contains("model.obj") && line.contains(".gltf or .glb"), "{line}");
+}
+
+#[test]
+fn unknown_scene_lists_builtin_scenes() {
+    let line = expect_error(&rtgi(&["render", "--scene", "nosuch"]));
+    assert!(line.contains("unknown scene 'nosuch'") && line.contains("built-in scenes"), "{line}");
+    for scene in rtgi::scene::builtin::list() {
+        assert!(line.contains(scene.name), "{line}");
+    }
+}
+
+/// The scene is a file that does not exist: the technique must be checked before the scene is loaded.
+#[test]
+fn unknown_technique_lists_techniques_before_loading_the_scene() {
+    let line = expect_error(&rtgi(&["render", "--scene", "never-loaded.glb", "--technique", "nosuch"]));
+    assert!(line.contains("unknown technique 'nosuch'") && line.contains("techniques:"), "{line}");
+    assert!(!line.contains("never-loaded.glb"), "{line}");
+    for technique in rtgi::techniques::registry() {
+        assert!(line.contains(technique.name), "{line}");
+    }
+}
+
+#[test]
+fn missing_scene_file_is_named() {
+    let line = expect_error(&rtgi(&["render", "--scene", "missing.glb"]));
+    assert!(line.contains("missing.glb"), "{line}");
+}
+
+#[test]
+fn export_scene_rejects_unknown_scenes_and_bad_outputs() {
+    let line = expect_error(&rtgi(&["export-scene", "nosuch", "out.glb"]));
+    assert!(line.contains("unknown scene 'nosuch'") && line.contains("built-in scenes"), "{line}");
+    let line = expect_error(&rtgi(&["export-scene", "cornell", "out.gltf"]));
+    assert!(line.contains("out.gltf") && line.contains(".glb"), "{line}");
+    let line = expect_error(&rtgi(&["export-scene", "scene.glb", "out.glb"]));
+    assert!(line.contains("scene.glb") && line.contains("built-in"), "{line}");
+}
+
+#[test]
+fn later_options_override_earlier_ones() {
+    let line = expect_error(&rtgi(&["render", "--size", "64x64", "--size", "0x0"]));
+    assert!(line.starts_with("error: --size '0x0'"), "{line}");
+}
+
+#[test]
+fn usage_errors_keep_clap_exit_code() {
+    let out = rtgi(&["render", "--no-such-flag"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
+
+// glTF files through the CLI. They need the real loader (branch gltf) and, because the technique is
+// validated before the scene is loaded, the `direct` technique (main).
+
+/// One triangle with UVs, positions and UVs in `tri.bin` next to the file.
+fn write_triangle_gltf(dir: &Path, extra_json: &str) -> std::path::PathBuf {
+    let floats: [f32; 15] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+    let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
+    std::fs::write(dir.join("tri.bin"), bytes).expect("write tri.bin");
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": 0}}]}}],
+  "buffers": [{{"uri": "tri.bin", "byteLength": 60}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 36}},
+    {{"buffer": 0, "byteOffset": 36, "byteLength": 24}}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+      "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}}
+  ]{extra_json}
+}}"#
+    );
+    let path = dir.join("scene.gltf");
+    std::fs::write(&path, json).expect("write scene.gltf");
+    path
+}
+
+#[test]
+fn truncated_glb_is_an_error() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let json = br#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[]}],"scene":0}  "#;
+    let mut glb = Vec::new();
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&((12 + 8 + json.len()) as u32).to_le_bytes());
+    glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(json);
+    // Cut inside the JSON chunk: the header promises more bytes than the file has.
+    glb.truncate(12 + 8 + json.len() / 2);
+    std::fs::write(dir.path().join("cut.glb"), glb).expect("write cut.glb");
+    let line = expect_error(&rtgi_in(dir.path(), &["render", "--scene", "cut.glb"]));
+    assert!(line.contains("cut.glb"), "{line}");
+}
+
+#[test]
+fn missing_texture_is_named() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let extra = r#",
+  "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+  "textures": [{"source": 0}],
+  "images": [{"uri": "missing-albedo.png"}]"#;
+    let scene = write_triangle_gltf(dir.path(), extra);
+    let line = expect_error(&rtgi_in(dir.path(), &["render", "--scene", &scene.to_string_lossy()]));
+    assert!(line.contains("missing-albedo.png"), "{line}");
+}
+
+#[test]
+fn unknown_required_extension_is_named() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let extra = r#",
+  "materials": [{}],
+  "extensionsUsed": ["EXT_rtgi_does_not_exist"],
+  "extensionsRequired": ["EXT_rtgi_does_not_exist"]"#;
+    let scene = write_triangle_gltf(dir.path(), extra);
+    let line = expect_error(&rtgi_in(dir.path(), &["render", "--scene", &scene.to_string_lossy()]));
+    assert!(line.contains("EXT_rtgi_does_not_exist"), "{line}");
+}
