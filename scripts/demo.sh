@@ -4,4 +4,4 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/ensure-vulkan.sh
-exec cargo run --release -p rtgi-cli -- render --scene cornell --technique direct --size 512x512 --out out.png "$@"
+exec cargo run --release -p rtgi-cli -- render --scene cornell --technique direct --size 512x512 --frames 16 --out out.png "$@"

@@ -149,7 +149,7 @@ impl GpuContext {
 
     /// Checks that a storage buffer of `bytes` fits the device, naming `what` in the error.
     pub fn check_storage_size(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
-        let limit = u64::from(self.limits().max_storage_buffer_binding_size);
+        let limit = self.limits().max_storage_buffer_binding_size;
         if bytes > limit {
             return Err(GpuError::OverLimit(format!(
                 "{what} needs {:.1} MiB, over the device's max_storage_buffer_binding_size of {:.1} MiB",

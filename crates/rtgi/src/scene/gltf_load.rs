@@ -499,16 +499,15 @@ impl Loader<'_> {
         // a coloured or textured specular is reported, not silently approximated.
         let specular_ext = m.extensions.as_ref().and_then(|e| e.specular.as_ref());
         let specular = specular_ext.map_or(1.0, |s| s.specular_factor.0);
-        if let Some(s) = specular_ext {
-            if s.specular_texture.is_some()
+        if let Some(s) = specular_ext
+            && (s.specular_texture.is_some()
                 || s.specular_color_texture.is_some()
-                || s.specular_color_factor.0 != [1.0; 3]
-            {
-                out.warnings.about(
-                    "KHR_materials_specular colour and textures ignored (only specularFactor is used)",
-                    label.clone(),
-                );
-            }
+                || s.specular_color_factor.0 != [1.0; 3])
+        {
+            out.warnings.about(
+                "KHR_materials_specular colour and textures ignored (only specularFactor is used)",
+                label.clone(),
+            );
         }
         let alpha_mode = match m.alpha_mode {
             Checked::Valid(json::material::AlphaMode::Opaque) => AlphaMode::Opaque,

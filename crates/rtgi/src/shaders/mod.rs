@@ -178,15 +178,14 @@ pub mod layout {
     pub fn wgsl_struct(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).expect("layout");
-        for (handle, ty) in module.types.iter() {
-            if ty.name.as_deref() == Some(name) {
-                if let naga::TypeInner::Struct { members, span } = &ty.inner {
-                    let _ = handle;
-                    return (
-                        *span,
-                        members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect(),
-                    );
-                }
+        for (_, ty) in module.types.iter() {
+            if ty.name.as_deref() == Some(name)
+                && let naga::TypeInner::Struct { members, span } = &ty.inner
+            {
+                return (
+                    *span,
+                    members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect(),
+                );
             }
         }
         panic!("WGSL struct {name} not found");

@@ -489,3 +489,25 @@ fn process_cpu_seconds() -> f64 {
     let f: Vec<f64> = rest.split_whitespace().skip(11).take(2).filter_map(|x| x.parse().ok()).collect();
     f.iter().sum::<f64>() / 100.0
 }
+
+/// The acceptance case: the `atrium` built-in scene at its largest detail (over a million triangles),
+/// GPU traversal against the CPU BVH on thousands of rays and against brute force on hundreds.
+#[test]
+fn bvh_gpu_matches_cpu_on_atrium_max_detail() {
+    let ctx = context();
+    let detail = crate::scene::builtin::list()
+        .iter()
+        .find(|s| s.name == "atrium")
+        .and_then(|s| s.params.iter().find(|p| p.name == "detail"))
+        .map(|p| match p.kind {
+            crate::params::ParamKind::Int { max, .. } => max,
+            _ => panic!("atrium detail is not an int"),
+        })
+        .expect("atrium has a detail parameter");
+    let scene =
+        crate::scene::builtin::build("atrium", &[("detail".into(), detail.to_string())]).expect("atrium");
+    let tris = super::SceneTriangles::from_scene(&scene);
+    assert!(tris.triangles.len() > 1_000_000, "atrium max detail has {} triangles", tris.triangles.len());
+    let (closest, any) = check_gpu_traversal(&ctx, "GPU atrium", &tris.triangles, false, 4096, 256);
+    assert_eq!(closest.closest_mismatches + any.any_mismatches, 0);
+}
