@@ -40,6 +40,12 @@ pub struct RenderArgs {
     /// Exposure in stops applied before the PNG tone map (EXR output is never scaled).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "EV")]
     exposure: f32,
+    /// Light the scene with this equirectangular radiance map (.hdr or .exr) instead of its own environment.
+    #[arg(long, value_name = "FILE")]
+    environment: Option<PathBuf>,
+    /// Scale of the --environment map's radiance.
+    #[arg(long, default_value_t = 1.0, value_name = "SCALE")]
+    environment_intensity: f32,
     /// Use the first GPU adapter whose name contains this (case-insensitive).
     #[arg(long, value_name = "NAME")]
     adapter: Option<String>,
@@ -64,7 +70,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     scene_spec.validate()?;
     rtgi::techniques::resolve(&args.technique, &technique_settings).map_err(anyhow::Error::msg)?;
 
-    let scene = scene_spec.load()?;
+    let mut scene = scene_spec.load()?;
+    if let Some(path) = &args.environment {
+        let map = rtgi::scene::EnvironmentMap::load(path, args.environment_intensity).context("--environment")?;
+        scene.environment = rtgi::scene::Environment::Map(map);
+    }
     print_warnings(&scene);
     let gpu = GpuContext::new(&GpuOptions { adapter_filter: args.adapter.clone() }).map_err(|e| {
         let e = anyhow::Error::new(e);

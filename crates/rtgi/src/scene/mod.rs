@@ -204,6 +204,41 @@ pub struct EnvironmentMap {
     pub intensity: f32,
 }
 
+impl EnvironmentMap {
+    /// Reads an equirectangular radiance map (.hdr or .exr, linear) scaled by `intensity`.
+    pub fn load(path: &std::path::Path, intensity: f32) -> Result<EnvironmentMap, crate::SceneError> {
+        if !intensity.is_finite() || intensity < 0.0 {
+            return Err(crate::SceneError::file(path, format!("environment intensity {intensity} must be ≥ 0")));
+        }
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if ext != "hdr" && ext != "exr" {
+            return Err(crate::SceneError::file(
+                path,
+                "an environment map must be an equirectangular .hdr or .exr file",
+            ));
+        }
+        let img = crate::image::HdrImage::read(path).map_err(|e| {
+            // The image error already names the file; keep one mention of it.
+            let text = e.to_string();
+            let prefix = format!("{}: ", path.display());
+            crate::SceneError::file(path, text.strip_prefix(&prefix).unwrap_or(&text).to_string())
+        })?;
+        if img.width != 2 * img.height {
+            return Err(crate::SceneError::file(
+                path,
+                format!("{}x{} is not an equirectangular (2:1) map", img.width, img.height),
+            ));
+        }
+        Ok(EnvironmentMap {
+            path: path.display().to_string(),
+            width: img.width,
+            height: img.height,
+            rgb: img.rgb,
+            intensity,
+        })
+    }
+}
+
 /// A perspective camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
