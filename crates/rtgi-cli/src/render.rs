@@ -72,7 +72,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     let mut scene = scene_spec.load()?;
     if let Some(path) = &args.environment {
-        let map = rtgi::scene::EnvironmentMap::load(path, args.environment_intensity).context("--environment")?;
+        let map =
+            rtgi::scene::EnvironmentMap::load(path, args.environment_intensity).context("--environment")?;
         scene.environment = rtgi::scene::Environment::Map(map);
     }
     print_warnings(&scene);

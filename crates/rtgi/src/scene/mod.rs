@@ -208,7 +208,10 @@ impl EnvironmentMap {
     /// Reads an equirectangular radiance map (.hdr or .exr, linear) scaled by `intensity`.
     pub fn load(path: &std::path::Path, intensity: f32) -> Result<EnvironmentMap, crate::SceneError> {
         if !intensity.is_finite() || intensity < 0.0 {
-            return Err(crate::SceneError::file(path, format!("environment intensity {intensity} must be ≥ 0")));
+            return Err(crate::SceneError::file(
+                path,
+                format!("environment intensity {intensity} must be ≥ 0"),
+            ));
         }
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         if ext != "hdr" && ext != "exr" {
