@@ -36,6 +36,19 @@ enum Command {
     Render(render::RenderArgs),
     /// List the built-in scenes and the techniques with their parameters.
     List,
+    /// Compare a test image with a reference: RMSE, relative MSE and mean FLIP.
+    Compare {
+        /// Reference image (.exr, .hdr or .png).
+        reference: PathBuf,
+        /// Test image of the same size.
+        test: PathBuf,
+        /// Print one JSON object {"rmse", "rel_mse", "flip"} instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Also write the FLIP error map as a PNG (magma colours).
+        #[arg(long, value_name = "FILE.png")]
+        error_map: Option<PathBuf>,
+    },
     /// Write a built-in scene as binary glTF (.glb).
     ExportScene {
         /// Built-in scene, optionally with parameters: NAME or NAME:key=value,...
@@ -45,6 +58,31 @@ enum Command {
     },
 }
 
+fn compare(reference: &Path, test: &Path, json: bool, error_map: Option<&Path>) -> anyhow::Result<()> {
+    if let Some(path) = error_map {
+        rtgi::image::FileFormat::for_writing(path).context("--error-map")?;
+        if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+            bail!("--error-map {}: must be a .png file", path.display());
+        }
+    }
+    let r = rtgi::image::HdrImage::read(reference)?;
+    let t = rtgi::image::HdrImage::read(test)?;
+    let m = rtgi::metrics::compare(&r, &t)
+        .with_context(|| format!("comparing {} with {}", test.display(), reference.display()))?;
+    if let Some(path) = error_map {
+        let (map, _) = rtgi::metrics::flip_map(&r, &t)?;
+        let rgb = rtgi::metrics::error_map_rgb8(&map, r.width, r.height);
+        create_parent(path)?;
+        rtgi::image::write_rgb8_png(path, r.width, r.height, &rgb)?;
+    }
+    if json {
+        println!("{}", serde_json::to_string(&m)?);
+    } else {
+        println!("rmse {:.6}  rel_mse {:.6}  flip {:.6}", m.rmse, m.rel_mse, m.flip);
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     install_panic_hook();
     let cli = Cli::parse();
@@ -52,6 +90,9 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(&args),
         Command::List => list::run(),
         Command::ExportScene { name, out } => export_scene(&name, &out),
+        Command::Compare { reference, test, json, error_map } => {
+            compare(&reference, &test, json, error_map.as_deref())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -225,3 +225,32 @@ fn unknown_required_extension_is_named() {
     let line = expect_error(&rtgi_in(dir.path(), &["render", "--scene", &scene.to_string_lossy()]));
     assert!(line.contains("EXT_rtgi_does_not_exist"), "{line}");
 }
+
+fn write_exr(dir: &Path, name: &str, w: u32, h: u32, rgb: Vec<f32>) {
+    rtgi::image::HdrImage { width: w, height: h, rgb }.write_exr(dir.join(name)).expect("write exr");
+}
+
+#[test]
+fn compare_prints_the_three_metrics_as_json() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    write_exr(dir.path(), "r.exr", 2, 1, vec![0.0, 0.5, 1.0, 2.0, 0.0, 0.1]);
+    write_exr(dir.path(), "t.exr", 2, 1, vec![0.1, 0.5, 0.8, 2.0, 0.3, 0.1]);
+    let out = rtgi_in(dir.path(), &["compare", "r.exr", "t.exr", "--json", "--error-map", "e.png"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).expect("one JSON object");
+    let rmse = v["rmse"].as_f64().expect("rmse");
+    assert!((rmse - (0.14f64 / 6.0).sqrt()).abs() < 1e-6, "{v}");
+    assert!(v["rel_mse"].as_f64().is_some() && v["flip"].as_f64().is_some_and(|f| f > 0.0), "{v}");
+    assert!(dir.path().join("e.png").exists());
+}
+
+#[test]
+fn compare_rejects_mismatched_and_missing_images() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    write_exr(dir.path(), "a.exr", 2, 1, vec![0.0; 6]);
+    write_exr(dir.path(), "b.exr", 1, 2, vec![0.0; 6]);
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "a.exr", "b.exr"]));
+    assert!(line.contains("2x1") && line.contains("1x2"), "{line}");
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "a.exr", "missing.exr"]));
+    assert!(line.contains("missing.exr"), "{line}");
+}

@@ -96,16 +96,9 @@ impl HdrImage {
 
     /// Writes an 8-bit sRGB PNG through `tone_map` (see the module documentation).
     pub fn write_png(&self, path: impl AsRef<Path>, tone_map: &ToneMap) -> Result<(), ImageError> {
-        use ::image::ImageEncoder;
-
         let path = path.as_ref();
         self.check_size(path)?;
-        let rgb8 = self.to_rgb8(tone_map);
-        let mut bytes = Vec::new();
-        ::image::codecs::png::PngEncoder::new(&mut bytes)
-            .write_image(&rgb8, self.width, self.height, ::image::ExtendedColorType::Rgb8)
-            .map_err(|e| ImageError::Encode { path: path.into(), message: format!("PNG: {e}") })?;
-        write_file(path, &bytes)
+        write_rgb8_png(path, self.width, self.height, &self.to_rgb8(tone_map))
     }
 
     /// The 8-bit sRGB pixels a PNG written with `tone_map` holds (width × height × 3 bytes).
@@ -245,6 +238,23 @@ fn unsupported(path: &Path, supported: &'static str) -> ImageError {
         None => "no extension".to_string(),
     };
     ImageError::UnsupportedExtension { path: path.into(), extension, supported }
+}
+
+/// Writes 8-bit RGB pixels (already display-encoded, e.g. an error map) as a PNG.
+pub fn write_rgb8_png(
+    path: impl AsRef<Path>,
+    width: u32,
+    height: u32,
+    rgb8: &[u8],
+) -> Result<(), ImageError> {
+    use ::image::ImageEncoder;
+
+    let path = path.as_ref();
+    let mut bytes = Vec::new();
+    ::image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(rgb8, width, height, ::image::ExtendedColorType::Rgb8)
+        .map_err(|e| ImageError::Encode { path: path.into(), message: format!("PNG: {e}") })?;
+    write_file(path, &bytes)
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {

@@ -7,6 +7,7 @@ pub mod error;
 pub mod frame;
 pub mod gpu;
 pub mod image;
+pub mod metrics;
 pub mod params;
 pub mod render;
 pub mod scene;
