@@ -36,6 +36,24 @@ enum Command {
     Render(render::RenderArgs),
     /// List the built-in scenes and the techniques with their parameters.
     List,
+    /// Render (or reuse from the cache) a path-traced reference EXR.
+    Reference {
+        /// Built-in scene (NAME or NAME:key=value,...) or a .gltf/.glb file.
+        #[arg(long, default_value = "cornell")]
+        scene: String,
+        /// Image size, WxH.
+        #[arg(long, default_value = "256x256", value_name = "WxH")]
+        size: String,
+        /// Samples per pixel.
+        #[arg(long, default_value_t = 1024)]
+        spp: u32,
+        /// Path tracer parameter (e.g. max_bounces=1); repeat for several.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Also write the reference here (.exr or .png).
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+    },
     /// Compare a test image with a reference: RMSE, relative MSE and mean FLIP.
     Compare {
         /// Reference image (.exr, .hdr or .png).
@@ -56,6 +74,51 @@ enum Command {
         /// Output file; must end in .glb.
         out: PathBuf,
     },
+}
+
+fn reference(scene: &str, size: &str, spp: u32, set: &[String], out: Option<&Path>) -> anyhow::Result<()> {
+    let (width, height) = rtgi::params::parse_size(size).map_err(|e| anyhow::anyhow!("--size {e}"))?;
+    if spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    if let Some(path) = out {
+        rtgi::image::FileFormat::for_writing(path).context("--out")?;
+    }
+    let settings = set
+        .iter()
+        .map(|s| rtgi::params::parse_setting(s).map_err(|e| anyhow::anyhow!("--set {e}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let request = rtgi::reference::ReferenceRequest { width, height, spp, settings };
+    let spec = SceneSpec::parse(scene).map_err(|e| anyhow::anyhow!("--scene {e}"))?;
+    spec.validate()?;
+    let scene = spec.load()?;
+    rtgi::reference::cache_key(&scene, &request)?;
+    print_warnings(&scene);
+    let gpu = rtgi::gpu::GpuContext::new(&rtgi::gpu::GpuOptions::default())?;
+    let bar = render::progress_bar(spp / rtgi::reference::samples_per_frame(spp));
+    let mut progress = |done: u32, _total: u32| {
+        if let Some(bar) = &bar {
+            bar.set_position(u64::from(done));
+        }
+    };
+    let start = std::time::Instant::now();
+    let result = rtgi::reference::reference(&gpu, &scene, &request, &mut progress);
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let r = result?;
+    if let Some(path) = out {
+        create_parent(path)?;
+        rtgi::reference::export(&r, path)?;
+    }
+    println!(
+        "{} {} ({} spp, {:.1} s)",
+        if r.cached { "cached" } else { "rendered" },
+        r.path.display(),
+        spp,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 fn compare(reference: &Path, test: &Path, json: bool, error_map: Option<&Path>) -> anyhow::Result<()> {
@@ -84,12 +147,20 @@ fn compare(reference: &Path, test: &Path, json: bool, error_map: Option<&Path>) 
 }
 
 fn main() -> ExitCode {
+    // Mesa's implicit VK_LAYER_MESA_device_select probes Wayland and X11 to pick a default device, which
+    // prints "XDG_RUNTIME_DIR is invalid" on headless machines. rtgi ranks adapters itself (discrete
+    // first), so the layer is turned off unless the user configured it.
+    if std::env::var_os("NODEVICE_SELECT").is_none() && std::env::var_os("MESA_VK_DEVICE_SELECT").is_none() {
+        // SAFETY: the process is still single-threaded here; nothing else reads the environment yet.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
     install_panic_hook();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render::run(&args),
         Command::List => list::run(),
         Command::ExportScene { name, out } => export_scene(&name, &out),
+        Command::Reference { scene, size, spp, set, out } => reference(&scene, &size, spp, &set, out.as_deref()),
         Command::Compare { reference, test, json, error_map } => {
             compare(&reference, &test, json, error_map.as_deref())
         }

@@ -127,7 +127,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// A bar only where someone watches it: scripts and CI logs get no control characters.
-fn progress_bar(frames: u32) -> Option<ProgressBar> {
+pub fn progress_bar(frames: u32) -> Option<ProgressBar> {
     if frames <= 1 || !std::io::stderr().is_terminal() {
         return None;
     }

@@ -9,9 +9,11 @@ pub mod gpu;
 pub mod image;
 pub mod metrics;
 pub mod params;
+pub mod reference;
 pub mod render;
 pub mod scene;
 pub mod shaders;
 pub mod techniques;
+pub mod testing;
 
 pub use error::SceneError;
