@@ -160,7 +160,9 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(&args),
         Command::List => list::run(),
         Command::ExportScene { name, out } => export_scene(&name, &out),
-        Command::Reference { scene, size, spp, set, out } => reference(&scene, &size, spp, &set, out.as_deref()),
+        Command::Reference { scene, size, spp, set, out } => {
+            reference(&scene, &size, spp, &set, out.as_deref())
+        }
         Command::Compare { reference, test, json, error_map } => {
             compare(&reference, &test, json, error_map.as_deref())
         }

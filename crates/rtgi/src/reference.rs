@@ -90,7 +90,9 @@ pub fn scene_content_hash(scene: &Scene) -> u64 {
     }
     for l in &scene.lights {
         match *l {
-            Light::Point { position, intensity } => h.u32(0).f32s(&position.to_array()).f32s(&intensity.to_array()),
+            Light::Point { position, intensity } => {
+                h.u32(0).f32s(&position.to_array()).f32s(&intensity.to_array())
+            }
             Light::Spot { position, direction, intensity, inner_angle, outer_angle } => h
                 .u32(1)
                 .f32s(&position.to_array())
@@ -114,7 +116,10 @@ pub fn scene_content_hash(scene: &Scene) -> u64 {
         Environment::Map(m) => h.u32(3).u32(m.width).u32(m.height).f32s(&[m.intensity]).f32s(&m.rgb),
     };
     let c = &scene.camera;
-    h.f32s(&c.position.to_array()).f32s(&c.target.to_array()).f32s(&c.up.to_array()).f32s(&[c.yfov, c.znear, c.zfar]);
+    h.f32s(&c.position.to_array())
+        .f32s(&c.target.to_array())
+        .f32s(&c.up.to_array())
+        .f32s(&[c.yfov, c.znear, c.zfar]);
     h.finish()
 }
 
@@ -198,7 +203,13 @@ pub fn reference(
     }
     let key = cache_key(scene, request)?;
     let dir = cache_dir();
-    let path = dir.join(format!("{}-{}x{}-{}spp-{key}.exr", sanitize(&scene.name), request.width, request.height, request.spp));
+    let path = dir.join(format!(
+        "{}-{}x{}-{}spp-{key}.exr",
+        sanitize(&scene.name),
+        request.width,
+        request.height,
+        request.spp
+    ));
     if let Ok(image) = HdrImage::read(&path)
         && image.width == request.width
         && image.height == request.height
@@ -217,8 +228,9 @@ pub fn reference(
         frames: request.spp / per_frame,
     };
     let out = render(ctx, scene, &settings, progress)?;
-    std::fs::create_dir_all(&dir)
-        .map_err(|e| RenderError::InvalidSettings(format!("{}: cannot create the cache: {e}", dir.display())))?;
+    std::fs::create_dir_all(&dir).map_err(|e| {
+        RenderError::InvalidSettings(format!("{}: cannot create the cache: {e}", dir.display()))
+    })?;
     // Write to a temporary name first so a concurrent reader never sees a half-written file.
     let tmp = path.with_extension(format!("tmp{}.exr", std::process::id()));
     out.image.write_exr(&tmp).map_err(|e| RenderError::InvalidSettings(e.to_string()))?;
@@ -228,7 +240,8 @@ pub fn reference(
 }
 
 fn sanitize(name: &str) -> String {
-    let s: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
+    let s: String =
+        name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
     if s.is_empty() { "scene".into() } else { s }
 }
 
@@ -268,7 +281,9 @@ mod tests {
         // Setting a parameter to its default is the same reference.
         let same = ReferenceRequest { settings: vec![("max_bounces".into(), "-1".into())], ..req.clone() };
         assert_eq!(k, cache_key(&a, &same).unwrap());
-        assert!(cache_key(&a, &ReferenceRequest { settings: vec![("bogus".into(), "1".into())], ..req }).is_err());
+        assert!(
+            cache_key(&a, &ReferenceRequest { settings: vec![("bogus".into(), "1".into())], ..req }).is_err()
+        );
     }
 
     #[test]

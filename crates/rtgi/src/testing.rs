@@ -48,7 +48,8 @@ fn owned(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
 impl ImageTest<'_> {
     /// Renders and compares; `Err` only for errors of the render itself.
     pub fn run(&self, ctx: &GpuContext, out_dir: &Path) -> Result<ImageTestResult, String> {
-        let scene = crate::scene::builtin::build(self.scene, &owned(self.scene_settings)).map_err(|e| e.to_string())?;
+        let scene = crate::scene::builtin::build(self.scene, &owned(self.scene_settings))
+            .map_err(|e| e.to_string())?;
         let settings = RenderSettings {
             technique: self.technique.into(),
             technique_settings: owned(self.settings),
@@ -70,7 +71,8 @@ impl ImageTest<'_> {
             None
         } else {
             let dir = out_dir.join(self.name);
-            self.write_artefacts(&dir, &reference.image, &test).map_err(|e| format!("{}: {e}", dir.display()))?;
+            self.write_artefacts(&dir, &reference.image, &test)
+                .map_err(|e| format!("{}: {e}", dir.display()))?;
             Some(dir)
         };
         Ok(ImageTestResult { metrics, passed, artefacts })

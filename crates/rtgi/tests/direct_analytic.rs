@@ -53,17 +53,33 @@ fn plane_point(cam: &Camera, x: u32, y: u32) -> Option<Vec3> {
     (t > 0.0).then(|| cam.position + dir * t)
 }
 
+/// Checks `direct` (shadow maps) and `path` with `max_bounces=0` (shadow rays) against the closed form.
 fn check(light: Light, expected_irradiance: impl Fn(Vec3) -> Vec3) {
     let ctx = GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)");
     let scene = plane_scene(light);
-    let settings = RenderSettings {
-        technique: "direct".into(),
-        technique_settings: vec![("shadow_map_size".into(), "512".into())],
-        width: SIZE,
-        height: SIZE,
-        frames: 1,
-    };
-    let out = render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render");
+    for (technique, setting) in [("direct", ("shadow_map_size", "512")), ("path", ("max_bounces", "0"))] {
+        let settings = RenderSettings {
+            technique: technique.into(),
+            technique_settings: vec![(setting.0.into(), setting.1.into())],
+            width: SIZE,
+            height: SIZE,
+            frames: 1,
+        };
+        check_image(
+            &scene,
+            technique,
+            &render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render"),
+            &expected_irradiance,
+        );
+    }
+}
+
+fn check_image(
+    scene: &Scene,
+    technique: &str,
+    out: &rtgi::render::RenderOutput,
+    expected_irradiance: &impl Fn(Vec3) -> Vec3,
+) {
     let mut checked = 0;
     for (x, y) in [(32, 32), (10, 40), (50, 50), (20, 60), (60, 30), (5, 63), (32, 10)] {
         let Some(p) = plane_point(&scene.camera, x, y) else { continue };
@@ -71,10 +87,16 @@ fn check(light: Light, expected_irradiance: impl Fn(Vec3) -> Vec3) {
         let want = e * ALBEDO / std::f32::consts::PI;
         let got = Vec3::from(out.image.pixel(x, y));
         if want.max_element() < 1e-4 {
-            assert!(got.max_element() < 1e-4, "pixel ({x},{y}) at {p}: expected dark, got {got}");
+            assert!(
+                got.max_element() < 1e-4,
+                "{technique}: pixel ({x},{y}) at {p}: expected dark, got {got}"
+            );
         } else {
             let rel = ((got - want).abs() / want).max_element();
-            assert!(rel < 0.01, "pixel ({x},{y}) at {p}: got {got}, closed form {want} (rel. error {rel})");
+            assert!(
+                rel < 0.01,
+                "{technique}: pixel ({x},{y}) at {p}: got {got}, closed form {want} (rel. error {rel})"
+            );
         }
         checked += 1;
     }
