@@ -86,7 +86,8 @@ pub struct GpuSceneInfo {
     pub sun_direction: [f32; 3],
     pub emissive_power: f32,
     pub sun_radiance: [f32; 3],
-    pub _pad0: f32,
+    /// Sum of luminance × sin θ over the environment map's texels (the normaliser of its sampling pdf).
+    pub env_weight_sum: f32,
     pub ground_radiance: [f32; 3],
     pub _pad1: f32,
     pub bounds_min: [f32; 3],
@@ -309,6 +310,7 @@ pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             },
             texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
             storage_layout_entry(12),
+            storage_layout_entry(13),
         ],
     })
 }
@@ -479,7 +481,7 @@ impl GpuScene {
             sun_direction: [0.0, 1.0, 0.0],
             emissive_power: total_power as f32,
             sun_radiance: [0.0; 3],
-            _pad0: 0.0,
+            env_weight_sum: 0.0,
             ground_radiance: [0.0; 3],
             _pad1: 0.0,
             bounds_min: bounds.min.into(),
@@ -488,6 +490,7 @@ impl GpuScene {
             _pad3: 0.0,
         };
         let mut env_texels: (u32, u32, Vec<f32>) = (1, 1, vec![0.0; 4]);
+        let mut env_cdf: Vec<f32> = vec![0.0; 4];
         match &scene.environment {
             Environment::None => {}
             Environment::Uniform(c) => {
@@ -513,6 +516,9 @@ impl GpuScene {
                 }
                 let rgba: Vec<f32> = map.rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
                 env_texels = (map.width, map.height, rgba);
+                let (cdf, sum) = environment_cdf(map.width, map.height, &map.rgb);
+                env_cdf = cdf;
+                info.env_weight_sum = sum;
             }
         }
 
@@ -543,6 +549,8 @@ impl GpuScene {
         let light_buffer = buffer("lights", bytemuck::cast_slice(&lights), storage);
         let emissive_buffer = buffer("emissive triangles", bytemuck::cast_slice(&emissive), storage);
         let emission_pdf_buffer = buffer("emission pdf", bytemuck::cast_slice(&emission_pdf), storage);
+        ctx.check_storage_size("the environment map's sampling table", (env_cdf.len() * 4) as u64)?;
+        let env_cdf_buffer = buffer("environment cdf", bytemuck::cast_slice(&env_cdf), storage);
         let info_buffer = buffer(
             "scene info",
             bytemuck::bytes_of(&info),
@@ -621,6 +629,7 @@ impl GpuScene {
                 wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::Sampler(&sampler) },
                 wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(&env_view) },
                 wgpu::BindGroupEntry { binding: 12, resource: emission_pdf_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 13, resource: env_cdf_buffer.as_entire_binding() },
             ],
         });
         let memory_bytes = vertex_buffer.size()
@@ -629,6 +638,7 @@ impl GpuScene {
             + light_buffer.size()
             + emissive_buffer.size()
             + emission_pdf_buffer.size()
+            + env_cdf_buffer.size()
             + info_buffer.size()
             + gpu_bvh.nodes.size()
             + gpu_bvh.triangles.size()
@@ -661,6 +671,38 @@ impl GpuScene {
             attributes: &ATTRIBUTES,
         }
     }
+}
+
+/// The sampling table of an equirectangular map, proportional to luminance × sin θ (the solid angle of a
+/// texel row): `height` marginal CDF values over rows, then `width` conditional CDF values per row, each
+/// running sum normalised to end at 1. Returns the table and the unnormalised total weight.
+pub fn environment_cdf(width: u32, height: u32, rgb: &[f32]) -> (Vec<f32>, f32) {
+    let (w, h) = (width as usize, height as usize);
+    let mut table = vec![0.0f32; h + w * h];
+    let mut row_sums = vec![0.0f64; h];
+    for y in 0..h {
+        let sin_theta = ((y as f64 + 0.5) / h as f64 * std::f64::consts::PI).sin();
+        let mut running = 0.0f64;
+        for x in 0..w {
+            let i = (y * w + x) * 3;
+            let l = f64::from(luminance(Vec3::new(rgb[i], rgb[i + 1], rgb[i + 2])).max(0.0));
+            running += l * sin_theta;
+            table[h + y * w + x] = running as f32;
+        }
+        row_sums[y] = running;
+        for x in 0..w {
+            // A black row is sampled uniformly (it is never chosen by the marginal anyway).
+            let v = &mut table[h + y * w + x];
+            *v = if running > 0.0 { (f64::from(*v) / running) as f32 } else { (x + 1) as f32 / w as f32 };
+        }
+    }
+    let total: f64 = row_sums.iter().sum();
+    let mut running = 0.0f64;
+    for y in 0..h {
+        running += row_sums[y];
+        table[y] = if total > 0.0 { (running / total) as f32 } else { (y + 1) as f32 / h as f32 };
+    }
+    (table, total as f32)
 }
 
 fn mean_srgb_luminance(t: &crate::scene::Texture) -> f32 {

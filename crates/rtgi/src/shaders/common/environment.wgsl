@@ -7,6 +7,7 @@
 // the sky with a directional light, which every technique handles exactly.
 
 #import common/scene.wgsl
+#import common/sampling.wgsl
 
 fn sky_radiance(d: vec3f) -> vec3f {
     if d.y < 0.0 {
@@ -35,4 +36,93 @@ fn environment_radiance(d: vec3f) -> vec3f {
             return vec3f(0.0);
         }
     }
+}
+
+// ---- Sampling the environment as a light ----
+// Maps are importance-sampled in proportion to luminance × sin θ (piecewise constant per texel, table
+// built by gpu/scene.rs `environment_cdf`); the uniform and sky environments, which are smooth, are
+// sampled cosine-weighted about the normal.
+
+struct EnvironmentSample {
+    direction: vec3f,
+    // Solid-angle density; 0 for an unusable sample.
+    pdf: f32,
+    radiance: vec3f,
+}
+
+// First index i in [0, count) with env_cdf[start + i] >= u.
+fn env_cdf_search(start: u32, count: u32, u: f32) -> u32 {
+    var lo = 0u;
+    var hi = count - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if env_cdf[start + mid] < u {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+}
+
+fn env_cdf_below(start: u32, i: u32) -> f32 {
+    if i == 0u {
+        return 0.0;
+    }
+    return env_cdf[start + i - 1u];
+}
+
+// Solid-angle density of texel (x, y) of a w × h map at a point of the texel with the given sin θ.
+fn env_map_texel_pdf(x: u32, y: u32, w: u32, h: u32, sin_theta: f32) -> f32 {
+    let row = h + y * w;
+    let p = (env_cdf[y] - env_cdf_below(0u, y)) * (env_cdf[row + x] - env_cdf_below(row, x));
+    return p * f32(w * h) / (2.0 * PI * PI * max(sin_theta, 1e-6));
+}
+
+fn sample_environment_map(u: vec2f) -> EnvironmentSample {
+    var s: EnvironmentSample;
+    let dims = textureDimensions(environment_map);
+    let w = dims.x;
+    let h = dims.y;
+    let y = env_cdf_search(0u, h, u.y);
+    let x = env_cdf_search(h + y * w, w, u.x);
+    // The position inside the texel reuses what is left of u inside the chosen bucket.
+    let y0 = env_cdf_below(0u, y);
+    let fy = saturate((u.y - y0) / max(env_cdf[y] - y0, 1e-12));
+    let row = h + y * w;
+    let x0 = env_cdf_below(row, x);
+    let fx = saturate((u.x - x0) / max(env_cdf[row + x] - x0, 1e-12));
+    let uv = vec2f((f32(x) + fx) / f32(w), (f32(y) + fy) / f32(h));
+    s.direction = equirect_direction(uv);
+    s.pdf = env_map_texel_pdf(x, y, w, h, sin(uv.y * PI));
+    s.radiance = textureLoad(environment_map, vec2u(x, y), 0).rgb * scene_info.env_intensity;
+    return s;
+}
+
+fn environment_map_pdf(d: vec3f) -> f32 {
+    let dims = textureDimensions(environment_map);
+    let uv = equirect_uv(d);
+    let x = min(u32(uv.x * f32(dims.x)), dims.x - 1u);
+    let y = min(u32(uv.y * f32(dims.y)), dims.y - 1u);
+    return env_map_texel_pdf(x, y, dims.x, dims.y, sqrt(max(0.0, 1.0 - d.y * d.y)));
+}
+
+// A direction for next-event estimation of the environment at a surface with normal n.
+fn sample_environment_light(n: vec3f, u: vec2f) -> EnvironmentSample {
+    if scene_info.env_kind == ENV_MAP {
+        return sample_environment_map(u);
+    }
+    var s: EnvironmentSample;
+    s.direction = local_to_world(sample_cosine_hemisphere(u), n);
+    s.pdf = pdf_cosine_hemisphere(dot(n, s.direction));
+    s.radiance = environment_radiance(s.direction);
+    return s;
+}
+
+// Density with which `sample_environment_light` picks d (for MIS of BRDF-sampled escapes).
+fn environment_light_pdf(n: vec3f, d: vec3f) -> f32 {
+    if scene_info.env_kind == ENV_MAP {
+        return environment_map_pdf(d);
+    }
+    return pdf_cosine_hemisphere(dot(n, d));
 }

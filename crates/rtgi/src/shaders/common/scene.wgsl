@@ -79,7 +79,7 @@ struct SceneInfo {
     sun_direction: vec3f,
     emissive_power: f32,
     sun_radiance: vec3f,
-    _pad0: f32,
+    env_weight_sum: f32,
     ground_radiance: vec3f,
     _pad1: f32,
     bounds_min: vec3f,
@@ -103,6 +103,9 @@ struct SceneInfo {
 // Per material: the area density with which area-light sampling picks a point on a triangle of this
 // material, luminance(emission) · mean texture / total emitted power (0 for non-emitters).
 @group(0) @binding(12) var<storage, read> emission_pdf: array<f32>;
+// Environment-map sampling table (gpu/scene.rs `environment_cdf`): height marginal CDF values over rows,
+// then width conditional CDF values per row.
+@group(0) @binding(13) var<storage, read> env_cdf: array<f32>;
 
 const MATERIAL_MASK: u32 = 0x00ffffffu;
 const TANGENT_FLIP_BIT: u32 = 0x80000000u;

@@ -31,17 +31,17 @@ fn sample_emissive(s: GSurface, u: vec3f) -> vec3f {
     return brdf_eval(s.material, s.normal, s.view, ls.direction) * ls.radiance * cos_surf / ls.pdf;
 }
 
-// One cosine-weighted sample of the environment.
+// One sample of the environment (importance-sampled for maps, cosine-weighted otherwise).
 fn sample_environment(s: GSurface, u: vec2f) -> vec3f {
-    let wi = local_to_world(sample_cosine_hemisphere(u), s.normal);
-    if dot(s.geometric_normal, wi) <= 0.0 {
+    let es = sample_environment_light(s.normal, u);
+    let cos_theta = dot(s.normal, es.direction);
+    if es.pdf <= 0.0 || cos_theta <= 0.0 || dot(s.geometric_normal, es.direction) <= 0.0 {
         return vec3f(0.0);
     }
-    if trace_any(Ray(ray_origin(s), wi), 0.0, FLT_MAX) {
+    if trace_any(Ray(ray_origin(s), es.direction), 0.0, FLT_MAX) {
         return vec3f(0.0);
     }
-    // brdf · L · cos / (cos / π)
-    return brdf_eval(s.material, s.normal, s.view, wi) * environment_radiance(wi) * PI;
+    return brdf_eval(s.material, s.normal, s.view, es.direction) * es.radiance * cos_theta / es.pdf;
 }
 
 @compute @workgroup_size(TILE, TILE)

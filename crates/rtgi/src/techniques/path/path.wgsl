@@ -103,14 +103,13 @@ fn trace_path(pixel: vec2u, rng: ptr<function, Rng>, rays: ptr<function, u32>) -
             }
         }
         if NEE_MODE != 2u && scene_info.env_kind != ENV_NONE {
-            let wi = local_to_world(sample_cosine_hemisphere(rng_next2(rng)), n);
-            let cos_theta = dot(n, wi);
-            let pdf = pdf_cosine_hemisphere(cos_theta);
-            if pdf > 0.0 && dot(ng, wi) > 0.0 {
-                if visible(origin, wi, FLT_MAX, rays) {
-                    let f = brdf_eval(s.material, n, v, wi);
-                    let w = mis_weight(pdf, brdf_pdf(s.material, n, v, wi));
-                    radiance += throughput * f * environment_radiance(wi) * cos_theta * w / pdf;
+            let es = sample_environment_light(n, rng_next2(rng));
+            let cos_theta = dot(n, es.direction);
+            if es.pdf > 0.0 && cos_theta > 0.0 && dot(ng, es.direction) > 0.0 {
+                if visible(origin, es.direction, FLT_MAX, rays) {
+                    let f = brdf_eval(s.material, n, v, es.direction);
+                    let w = mis_weight(es.pdf, brdf_pdf(s.material, n, v, es.direction));
+                    radiance += throughput * f * es.radiance * cos_theta * w / es.pdf;
                 }
             }
         }
@@ -130,7 +129,7 @@ fn trace_path(pixel: vec2u, rng: ptr<function, Rng>, rays: ptr<function, u32>) -
         throughput *= bs.weight;
         prev_position = s.position;
         prev_brdf_pdf = bs.pdf;
-        prev_env_pdf = pdf_cosine_hemisphere(dot(n, bs.direction));
+        prev_env_pdf = environment_light_pdf(n, bs.direction);
         ray = Ray(origin, bs.direction);
     }
     return radiance;
