@@ -105,3 +105,37 @@ fn nee_brdf_and_mis_estimators_agree() {
         }
     }
 }
+
+/// Least-squares slope of log(rmse) against log(spp).
+fn log_log_slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let (sx, sy) = points.iter().fold((0.0, 0.0), |a, (x, y)| (a.0 + x.ln(), a.1 + y.ln()));
+    let (mx, my) = (sx / n, sy / n);
+    let num: f64 = points.iter().map(|(x, y)| (x.ln() - mx) * (y.ln() - my)).sum();
+    let den: f64 = points.iter().map(|(x, _)| (x.ln() - mx).powi(2)).sum();
+    num / den
+}
+
+/// An unbiased, consistent estimator's RMSE against a converged reference falls as 1/√spp: the
+/// log–log slope over 16…256 spp lies in [−0.55, −0.45]. (A biased estimator flattens out.)
+#[test]
+fn rmse_falls_as_inverse_square_root_of_samples() {
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let scene = rtgi::scene::builtin::build("cornell", &[]).expect("cornell");
+    let size = 16;
+    let request =
+        rtgi::reference::ReferenceRequest { width: size, height: size, spp: 4096, settings: vec![] };
+    let reference = rtgi::reference::reference(&ctx, &scene, &request, &mut |_, _| {}).expect("reference");
+    let mut points = Vec::new();
+    for (i, spp) in [16u32, 32, 64, 128, 256].into_iter().enumerate() {
+        // A different seed than the reference's (0) and than each other, so errors are independent.
+        let seed = (1000 + i).to_string();
+        let img = render_path(&ctx, "cornell", size, spp, &[("seed", &seed)]);
+        let e = rtgi::metrics::rmse(&reference.image, &img).expect("same size");
+        eprintln!("spp {spp}: rmse {e:.5}");
+        points.push((f64::from(spp), e));
+    }
+    let slope = log_log_slope(&points);
+    eprintln!("log-log slope {slope:.3}");
+    assert!((-0.55..=-0.45).contains(&slope), "slope {slope}: {points:?}");
+}
