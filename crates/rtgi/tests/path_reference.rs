@@ -31,6 +31,16 @@ fn furnace_mean_radiance_is_one() {
     assert!(rays / samples > 6.0, "{rays} rays for {samples} samples");
 }
 
+/// At 1024 samples per pixel every furnace pixel is within 5 % of 1.
+#[test]
+fn furnace_every_pixel_within_five_percent_at_1024_spp() {
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let img = render_path(&ctx, "furnace", 24, 1024, &[]);
+    let (lo, hi) = img.rgb.iter().fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    eprintln!("furnace at 1024 spp: mean {:.5}, min {lo:.4}, max {hi:.4}", mean(&img.rgb));
+    assert!(lo > 0.95 && hi < 1.05, "pixel range [{lo}, {hi}] not within 1 ± 5 %");
+}
+
 fn render_path(
     ctx: &GpuContext,
     scene: &str,
