@@ -137,3 +137,72 @@ fn directional_light_over_lambertian_plane() {
     let irradiance = Vec3::new(2.0, 1.5, 1.0);
     check(Light::Directional { direction: dir, irradiance }, |_| irradiance * (-dir).y);
 }
+
+/// A pixel whose centre sees the plane at `target` (searched over the image).
+fn pixel_seeing(cam: &Camera, target: Vec3) -> (u32, u32) {
+    let mut best = (0, 0, f32::MAX);
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            if let Some(p) = plane_point(cam, x, y) {
+                let d = (p - target).length();
+                if d < best.2 {
+                    best = (x, y, d);
+                }
+            }
+        }
+    }
+    (best.0, best.1)
+}
+
+/// Shadow maps of every light kind: an opaque square between the light and the plane darkens the plane
+/// below it (umbra) in `direct`, exactly where shadow rays of `path` (max_bounces=0) say so.
+#[test]
+fn shadow_maps_of_every_light_kind_cast_umbras() {
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let lights = [
+        Light::Point { position: Vec3::new(0.0, 2.0, 0.0), intensity: Vec3::splat(10.0) },
+        Light::Spot {
+            position: Vec3::new(0.0, 2.0, 0.0),
+            direction: Vec3::NEG_Y,
+            intensity: Vec3::splat(10.0),
+            inner_angle: 0.9,
+            outer_angle: 1.1,
+        },
+        Light::Directional { direction: Vec3::NEG_Y, irradiance: Vec3::splat(3.0) },
+    ];
+    for light in lights {
+        let mut scene = plane_scene(light);
+        let h = 0.3;
+        scene.meshes.push(Mesh::with_generated_tangents(
+            "occluder",
+            vec![Vec3::new(-h, 1.0, -h), Vec3::new(h, 1.0, -h), Vec3::new(h, 1.0, h), Vec3::new(-h, 1.0, h)],
+            vec![Vec3::Y; 4],
+            vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
+            vec![0, 2, 1, 0, 3, 2],
+            0,
+        ));
+        // The camera looks from the side so that the occluder does not hide the umbra.
+        scene.camera.position = Vec3::new(0.0, 2.5, 4.5);
+        let umbra = pixel_seeing(&scene.camera, Vec3::new(0.0, 0.0, 0.0));
+        let lit = pixel_seeing(&scene.camera, Vec3::new(0.0, 0.0, 1.5));
+        for (technique, setting) in [("direct", ("shadow_map_size", "1024")), ("path", ("max_bounces", "0"))]
+        {
+            let settings = RenderSettings {
+                technique: technique.into(),
+                technique_settings: vec![(setting.0.into(), setting.1.into())],
+                width: SIZE,
+                height: SIZE,
+                frames: 1,
+            };
+            let out = render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render");
+            let dark = Vec3::from(out.image.pixel(umbra.0, umbra.1)).max_element();
+            let bright = Vec3::from(out.image.pixel(lit.0, lit.1)).max_element();
+            assert!(bright > 0.05, "{} {technique}: lit pixel {lit:?} is {bright}", light.kind_name());
+            assert!(
+                dark < 0.01 * bright,
+                "{} {technique}: umbra pixel {umbra:?} is {dark} (lit {bright})",
+                light.kind_name()
+            );
+        }
+    }
+}

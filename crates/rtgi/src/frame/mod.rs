@@ -286,6 +286,74 @@ fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::BindGroupLayout
     })
 }
 
+/// A pipeline that rasterises the whole scene (one indexed draw of the GPU scene's vertex buffer) with
+/// a less-than depth test and no culling (rtgi shades both sides of every surface).
+fn scene_raster_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    targets: &[Option<wgpu::ColorTargetState>],
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(GpuScene::vertex_layout())],
+        },
+        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// Records one draw of the whole scene into a depth (and optional colour) pass.
+fn draw_scene(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    colors: &[Option<wgpu::RenderPassColorAttachment>],
+    depth: &wgpu::TextureView,
+    pipeline: &wgpu::RenderPipeline,
+    scene: &GpuScene,
+    (group1, group1_offsets): (&wgpu::BindGroup, &[u32]),
+) {
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: colors,
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, &scene.bind_group, &[]);
+    pass.set_bind_group(1, group1, group1_offsets);
+    pass.set_vertex_buffer(0, scene.vertex_buffer.slice(..));
+    pass.set_index_buffer(scene.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+    pass.draw_indexed(0..scene.index_count, 0, 0..1);
+}
+
 impl FrameResources {
     pub fn new(
         ctx: &GpuContext,
@@ -464,39 +532,19 @@ impl FrameResources {
         });
         let color =
             |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
-        let gbuffer_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("gbuffer"),
-            layout: Some(&gbuffer_layout),
-            vertex: wgpu::VertexState {
-                module: &gbuffer_module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(GpuScene::vertex_layout())],
-            },
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &gbuffer_module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[
-                    color(ALBEDO_FORMAT),
-                    color(NORMAL_FORMAT),
-                    color(MATERIAL_FORMAT),
-                    color(EMISSION_FORMAT),
-                    color(DISTANCE_FORMAT),
-                ],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let gbuffer_pipeline = scene_raster_pipeline(
+            device,
+            "gbuffer",
+            &gbuffer_layout,
+            &gbuffer_module,
+            &[
+                color(ALBEDO_FORMAT),
+                color(NORMAL_FORMAT),
+                color(MATERIAL_FORMAT),
+                color(EMISSION_FORMAT),
+                color(DISTANCE_FORMAT),
+            ],
+        );
 
         // Shadow pipeline (only when shadow maps are in use).
         let shadow_layout = uniform_layout(device, true);
@@ -523,33 +571,7 @@ impl FrameResources {
                 bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&shadow_layout)],
                 immediate_size: 0,
             });
-            Some(device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("shadow"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(GpuScene::vertex_layout())],
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[],
-                }),
-                multiview_mask: None,
-                cache: None,
-            }))
+            Some(scene_raster_pipeline(device, "shadow", &layout, &module, &[]))
         };
 
         Ok(FrameResources {
@@ -596,27 +618,16 @@ impl FrameResources {
                             array_layer_count: Some(1),
                             ..Default::default()
                         });
-                        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                            label: Some("shadow map"),
-                            color_attachments: &[],
-                            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                                view: &view,
-                                depth_ops: Some(wgpu::Operations {
-                                    load: wgpu::LoadOp::Clear(1.0),
-                                    store: wgpu::StoreOp::Store,
-                                }),
-                                stencil_ops: None,
-                            }),
-                            timestamp_writes: None,
-                            occlusion_query_set: None,
-                            multiview_mask: None,
-                        });
-                        pass.set_pipeline(pipeline);
-                        pass.set_bind_group(0, &scene.bind_group, &[]);
-                        pass.set_bind_group(1, &self.shadow_bind_group, &[layer * SHADOW_VIEW_STRIDE as u32]);
-                        pass.set_vertex_buffer(0, scene.vertex_buffer.slice(..));
-                        pass.set_index_buffer(scene.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-                        pass.draw_indexed(0..scene.index_count, 0, 0..1);
+                        let offset = layer * SHADOW_VIEW_STRIDE as u32;
+                        draw_scene(
+                            encoder,
+                            "shadow map",
+                            &[],
+                            &view,
+                            pipeline,
+                            scene,
+                            (&self.shadow_bind_group, &[offset]),
+                        );
                     }
                 })?;
             }
@@ -645,27 +656,15 @@ impl FrameResources {
                 })
                 .collect();
             let depth_view = self.gbuffer.depth.create_view(&Default::default());
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("gbuffer"),
-                color_attachments: &attachments,
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.gbuffer_pipeline);
-            pass.set_bind_group(0, &scene.bind_group, &[]);
-            pass.set_bind_group(1, &self.camera_bind_group, &[]);
-            pass.set_vertex_buffer(0, scene.vertex_buffer.slice(..));
-            pass.set_index_buffer(scene.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..scene.index_count, 0, 0..1);
+            draw_scene(
+                encoder,
+                "gbuffer",
+                &attachments,
+                &depth_view,
+                &self.gbuffer_pipeline,
+                scene,
+                (&self.camera_bind_group, &[]),
+            );
         })?;
         Ok(())
     }
