@@ -107,29 +107,3 @@ fn invalid_settings_are_clear_errors() {
     let e = render(&ctx, &scene, &settings("direct", 100_000, 8), &mut |_, _| {}).err().expect("error");
     assert!(e.to_string().contains("max_texture_dimension_2d"), "{e}");
 }
-
-#[test]
-#[ignore = "scratch"]
-fn scratch_dump() {
-    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
-    let mut s = settings(&std::env::var("SCRATCH_TECH").unwrap_or("direct".into()), 256, 192);
-    s.frames = 8;
-    s.technique_settings = std::env::var("SCRATCH_SET")
-        .map(|v| {
-            v.split(",")
-                .filter_map(|kv| kv.split_once("=").map(|(a, b)| (a.to_string(), b.to_string())))
-                .collect()
-        })
-        .unwrap_or_default();
-    let scene = match std::env::var("SCRATCH_SCENE") {
-        Ok(n) => rtgi::scene::builtin::build(&n, &[]).unwrap(),
-        Err(_) => small_scene(),
-    };
-    let out = render(&ctx, &scene, &s, &mut |_, _| {}).expect("render");
-    let img = image::RgbImage::from_fn(256, 192, |x, y| {
-        let p = out.image.pixel(x, y);
-        image::Rgb(p.map(|v| ((v / (1.0 + v)).powf(1.0 / 2.2) * 255.0) as u8))
-    });
-    img.save("/tmp/scratch.png").unwrap();
-    eprintln!("{}", serde_json::to_string_pretty(&out.stats).unwrap());
-}
