@@ -12,6 +12,7 @@ pub mod params;
 pub mod reference;
 pub mod render;
 pub mod scene;
+pub mod sh;
 pub mod shaders;
 pub mod techniques;
 pub mod testing;

@@ -1,0 +1,318 @@
+//! Real spherical harmonics up to band 4 (25 coefficients), the CPU twin of `shaders/common/sh.wgsl`.
+//!
+//! Conventions: orthonormal real SH, coefficient index `l(l+1)+m`, the Cartesian polynomials of Sloan,
+//! "Stupid Spherical Harmonics Tricks" (2008) for a unit vector (x, y, z). A zonal function (symmetric
+//! about an axis `a`) with zonal coefficients z_l has SH coefficients √(4π/(2l+1)) z_l Y_lm(a); convolving a
+//! function with a zonal kernel multiplies band l by that kernel's Â_l.
+
+use glam::Vec3;
+
+pub const BANDS: usize = 5;
+pub const COEFFICIENTS: usize = BANDS * BANDS;
+
+/// Y_lm(d) for l ≤ 4, d a unit vector.
+pub fn basis(d: Vec3) -> [f32; COEFFICIENTS] {
+    let (x, y, z) = (f64::from(d.x), f64::from(d.y), f64::from(d.z));
+    let (x2, y2, z2) = (x * x, y * y, z * z);
+    let b = [
+        0.282_094_791_773_878,
+        0.488_602_511_902_920 * y,
+        0.488_602_511_902_920 * z,
+        0.488_602_511_902_920 * x,
+        1.092_548_430_592_079 * x * y,
+        1.092_548_430_592_079 * y * z,
+        0.315_391_565_252_520 * (3.0 * z2 - 1.0),
+        1.092_548_430_592_079 * x * z,
+        0.546_274_215_296_040 * (x2 - y2),
+        0.590_043_589_926_644 * y * (3.0 * x2 - y2),
+        2.890_611_442_640_554 * x * y * z,
+        0.457_045_799_464_466 * y * (5.0 * z2 - 1.0),
+        0.373_176_332_590_115 * z * (5.0 * z2 - 3.0),
+        0.457_045_799_464_466 * x * (5.0 * z2 - 1.0),
+        1.445_305_721_320_277 * z * (x2 - y2),
+        0.590_043_589_926_644 * x * (x2 - 3.0 * y2),
+        2.503_342_941_796_705 * x * y * (x2 - y2),
+        1.770_130_769_779_931 * y * z * (3.0 * x2 - y2),
+        0.946_174_695_757_560 * x * y * (7.0 * z2 - 1.0),
+        0.669_046_543_557_289 * y * z * (7.0 * z2 - 3.0),
+        0.105_785_546_915_204 * (35.0 * z2 * z2 - 30.0 * z2 + 3.0),
+        0.669_046_543_557_289 * x * z * (7.0 * z2 - 3.0),
+        0.473_087_347_878_780 * (x2 - y2) * (7.0 * z2 - 1.0),
+        1.770_130_769_779_931 * x * z * (x2 - 3.0 * y2),
+        0.625_835_735_449_176 * (x2 * (x2 - 3.0 * y2) - y2 * (3.0 * x2 - y2)),
+    ];
+    b.map(|v| v as f32)
+}
+
+/// The band of coefficient `i`.
+pub fn band(i: usize) -> usize {
+    (i as f64).sqrt() as usize
+}
+
+/// Â_l of the clamped cosine max(0, cos θ): irradiance E_lm = Â_l L_lm (Ramamoorthi & Hanrahan 2001):
+/// π, 2π/3, π/4, 0, −π/24.
+pub fn lambert(l: usize) -> f32 {
+    std::f32::consts::PI * phong(1.0, l)
+}
+
+/// Â_l of the normalised Phong lobe (n+1)/(2π) max(0, cos θ)ⁿ: (n+1) ∫₀¹ tⁿ P_l(t) dt, by the recurrence
+/// I_l = (n − l + 2)/(n + l + 1) · I_{l−2}, I_0 = 1/(n+1), I_1 = 1/(n+2). Band 0 is 1 (the lobe
+/// integrates to one).
+pub fn phong(n: f32, l: usize) -> f32 {
+    let n = f64::from(n);
+    let mut i = [1.0 / (n + 1.0), 1.0 / (n + 2.0)];
+    let mut k = 1;
+    while k < l {
+        k += 1;
+        let next = (n - k as f64 + 2.0) / (n + k as f64 + 1.0) * i[k % 2];
+        i[k % 2] = next;
+    }
+    ((n + 1.0) * i[l % 2]) as f32
+}
+
+/// Coefficients of a zonal function about `axis` given its per-band Â_l (so a kernel's `Â_l`, or a
+/// zonal function's √(4π/(2l+1)) z_l): f_lm = Â_l Y_lm(axis).
+pub fn rotate_zonal(axis: Vec3, a_hat: &[f32; BANDS]) -> [f32; COEFFICIENTS] {
+    let y = basis(axis);
+    std::array::from_fn(|i| a_hat[band(i)] * y[i])
+}
+
+/// Evaluates Σ c_i Y_i(d).
+pub fn eval(c: &[f32; COEFFICIENTS], d: Vec3) -> f32 {
+    basis(d).iter().zip(c).map(|(y, c)| y * c).sum()
+}
+
+/// Projects `f` onto the basis by quadrature: Gauss–Legendre in cos θ (64 nodes) × uniform in φ (128).
+pub fn project(f: impl Fn(Vec3) -> f64) -> [f64; COEFFICIENTS] {
+    let (nodes, weights) = gauss_legendre(64);
+    let nphi = 128;
+    let mut c = [0.0f64; COEFFICIENTS];
+    for (t, w) in nodes.iter().zip(&weights) {
+        let s = (1.0 - t * t).max(0.0).sqrt();
+        for k in 0..nphi {
+            let phi = (k as f64 + 0.5) / nphi as f64 * std::f64::consts::TAU;
+            let d = Vec3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, *t as f32);
+            let fv = f(d) * w * std::f64::consts::TAU / nphi as f64;
+            for (ci, y) in c.iter_mut().zip(basis(d)) {
+                *ci += fv * f64::from(y);
+            }
+        }
+    }
+    c
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1] (Newton iteration on P_n).
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut nodes = vec![0.0; n];
+    let mut weights = vec![0.0; n];
+    for i in 0..n {
+        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, x);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+            let dx = p1 / dp;
+            x -= dx;
+            if dx.abs() < 1e-15 {
+                let (mut q0, mut q1) = (1.0, x);
+                for k in 2..=n {
+                    let q2 = ((2 * k - 1) as f64 * x * q1 - (k - 1) as f64 * q0) / k as f64;
+                    q0 = q1;
+                    q1 = q2;
+                }
+                let dq = n as f64 * (x * q1 - q0) / (x * x - 1.0);
+                weights[i] = 2.0 / ((1.0 - x * x) * dq * dq);
+                break;
+            }
+        }
+        nodes[i] = x;
+    }
+    (nodes, weights)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f32::consts::PI;
+
+    fn dirs() -> Vec<Vec3> {
+        (0..200)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 200.0;
+                let phi = i as f32 * 2.399_963;
+                let s = (1.0 - z * z).sqrt();
+                Vec3::new(s * phi.cos(), s * phi.sin(), z)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn basis_is_orthonormal_under_quadrature() {
+        for i in 0..COEFFICIENTS {
+            let c = project(|d| f64::from(basis(d)[i]));
+            for (j, v) in c.iter().enumerate() {
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((v - want).abs() < 1e-4, "<Y{i}, Y{j}> = {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn projection_of_known_functions() {
+        // A constant projects onto band 0 only: c_0 = √(4π) · value.
+        let c = project(|_| 2.0);
+        assert!((c[0] - 2.0 * (4.0 * std::f64::consts::PI).sqrt()).abs() < 1e-4);
+        assert!(c[1..].iter().all(|v| v.abs() < 1e-4));
+        // A linear function x = √(4π/3) Y_11.
+        let c = project(|d| f64::from(d.x));
+        assert!((c[3] - (4.0 * std::f64::consts::PI / 3.0).sqrt()).abs() < 1e-4, "{c:?}");
+        // Band-limited functions are reconstructed exactly.
+        let f = |d: Vec3| f64::from(0.3 + d.y * d.z - 0.7 * d.x * d.x * d.x + d.z.powi(4));
+        let c = project(f);
+        let c32: [f32; COEFFICIENTS] = c.map(|v| v as f32);
+        for d in dirs() {
+            assert!((f64::from(eval(&c32, d)) - f(d)).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn lambert_coefficients_are_pi_two_pi_thirds_pi_quarter() {
+        assert!((lambert(0) - PI).abs() < 1e-6);
+        assert!((lambert(1) - 2.0 * PI / 3.0).abs() < 1e-6);
+        assert!((lambert(2) - PI / 4.0).abs() < 1e-6);
+        assert!(lambert(3).abs() < 1e-6);
+        assert!((lambert(4) + PI / 24.0).abs() < 1e-6);
+    }
+
+    /// Zonal rotation gives the coefficients of the clamped cosine about any axis, as direct quadrature
+    /// does; likewise for Phong lobes of several exponents.
+    #[test]
+    fn zonal_rotation_and_phong_match_quadrature() {
+        let axis = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let cases: Vec<(f32, Box<dyn Fn(Vec3) -> f64>)> = vec![
+            (1.0, Box::new(move |d: Vec3| f64::from(axis.dot(d).max(0.0)))),
+            (8.0, Box::new(move |d: Vec3| f64::from(9.0 / (2.0 * PI) * axis.dot(d).max(0.0).powf(8.0)))),
+            (30.0, Box::new(move |d: Vec3| f64::from(31.0 / (2.0 * PI) * axis.dot(d).max(0.0).powf(30.0)))),
+        ];
+        for (n, f) in cases {
+            let projected = project(&f);
+            // The kernel's Â_l applied to the delta at `axis` (whose coefficients are Y_lm(axis)).
+            let a_hat: [f32; BANDS] =
+                std::array::from_fn(|l| if n == 1.0 { lambert(l) } else { phong(n, l) });
+            let rotated = rotate_zonal(axis, &a_hat);
+            for i in 0..COEFFICIENTS {
+                assert!(
+                    (projected[i] - f64::from(rotated[i])).abs() < 1e-4,
+                    "n = {n}, coefficient {i}: quadrature {} vs zonal rotation {}",
+                    projected[i],
+                    rotated[i]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials() {
+        let (x, w) = gauss_legendre(16);
+        let integral: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(10)).sum();
+        assert!((integral - 2.0 / 11.0).abs() < 1e-12);
+    }
+}
+
+/// `shaders/common/sh.wgsl` computes the same basis and kernel coefficients as this module.
+#[cfg(test)]
+mod gpu_tests {
+    use super::*;
+    use crate::gpu::{GpuContext, GpuOptions, readback};
+    use crate::shaders::{Defines, create_module};
+    use wgpu::util::DeviceExt;
+
+    const SHADER: &str = "#import common/sh.wgsl
+@group(0) @binding(0) var<storage, read> dirs: array<vec4f>;
+@group(0) @binding(1) var<storage, read_write> out: array<f32>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let n = arrayLength(&dirs);
+    if id.x >= n { return; }
+    let d = dirs[id.x];
+    let b = sh_basis(d.xyz);
+    for (var i = 0u; i < SH_COEFFICIENTS; i++) {
+        out[id.x * 30u + i] = b[i];
+    }
+    for (var l = 0u; l < SH_BANDS; l++) {
+        out[id.x * 30u + 25u + l] = sh_phong(d.w, l);
+    }
+}";
+
+    #[test]
+    fn wgsl_matches_cpu() {
+        let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+        let dirs: Vec<[f32; 4]> = (0..256)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 256.0;
+                let phi = i as f32 * 2.399_963;
+                let s = (1.0 - z * z).sqrt();
+                [s * phi.cos(), s * phi.sin(), z, 1.0 + (i % 7) as f32 * 13.0]
+            })
+            .collect();
+        let device = &ctx.device;
+        let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: None,
+            contents: bytemuck::cast_slice(&dirs),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let size = (dirs.len() * 30 * 4) as u64;
+        let output = device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let module = create_module(device, "sh test", SHADER, &Defines::new()).expect("compose");
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: None,
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+            ],
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups((dirs.len() as u32).div_ceil(64), 1, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = readback::read_buffer(&ctx, &output, 0, size).expect("readback");
+        let gpu: &[f32] = bytemuck::cast_slice(&bytes);
+        for (k, d) in dirs.iter().enumerate() {
+            let cpu = basis(Vec3::new(d[0], d[1], d[2]));
+            for i in 0..COEFFICIENTS {
+                assert!(
+                    (gpu[k * 30 + i] - cpu[i]).abs() < 1e-5,
+                    "dir {k} Y{i}: GPU {} CPU {}",
+                    gpu[k * 30 + i],
+                    cpu[i]
+                );
+            }
+            for l in 0..BANDS {
+                let (g, c) = (gpu[k * 30 + 25 + l], phong(d[3], l));
+                assert!((g - c).abs() < 1e-5, "phong n = {} band {l}: GPU {g} CPU {c}", d[3]);
+            }
+        }
+    }
+}
