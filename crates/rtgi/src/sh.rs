@@ -193,12 +193,12 @@ mod tests {
     #[test]
     fn zonal_rotation_and_phong_match_quadrature() {
         let axis = Vec3::new(0.3, -0.5, 0.8).normalize();
-        let cases: Vec<(f32, Box<dyn Fn(Vec3) -> f64>)> = vec![
-            (1.0, Box::new(move |d: Vec3| f64::from(axis.dot(d).max(0.0)))),
-            (8.0, Box::new(move |d: Vec3| f64::from(9.0 / (2.0 * PI) * axis.dot(d).max(0.0).powf(8.0)))),
-            (30.0, Box::new(move |d: Vec3| f64::from(31.0 / (2.0 * PI) * axis.dot(d).max(0.0).powf(30.0)))),
-        ];
-        for (n, f) in cases {
+        // n = 1 stands for the plain clamped cosine (Lambert's kernel), others for normalised Phong lobes.
+        for n in [1.0f32, 8.0, 30.0] {
+            let f = move |d: Vec3| {
+                let c = axis.dot(d).max(0.0);
+                f64::from(if n == 1.0 { c } else { (n + 1.0) / (2.0 * PI) * c.powf(n) })
+            };
             let projected = project(&f);
             // The kernel's Â_l applied to the delta at `axis` (whose coefficients are Y_lm(axis)).
             let a_hat: [f32; BANDS] =
