@@ -199,7 +199,7 @@ mod tests {
                 let c = axis.dot(d).max(0.0);
                 f64::from(if n == 1.0 { c } else { (n + 1.0) / (2.0 * PI) * c.powf(n) })
             };
-            let projected = project(&f);
+            let projected = project(f);
             // The kernel's Â_l applied to the delta at `axis` (whose coefficients are Y_lm(axis)).
             let a_hat: [f32; BANDS] =
                 std::array::from_fn(|l| if n == 1.0 { lambert(l) } else { phong(n, l) });
