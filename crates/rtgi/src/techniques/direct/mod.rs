@@ -76,6 +76,17 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
 }
 
 impl Technique for Direct {
+    fn counters(
+        &mut self,
+        _ctx: &crate::gpu::GpuContext,
+    ) -> Result<std::collections::BTreeMap<String, f64>, RenderError> {
+        // Per-pixel memory: the shared G-buffer plus the f32 radiance output.
+        Ok(std::collections::BTreeMap::from([
+            ("gbuffer_bytes_per_pixel".to_string(), f64::from(crate::frame::GBUFFER_BYTES_PER_PIXEL)),
+            ("output_bytes_per_pixel".to_string(), 16.0),
+        ]))
+    }
+
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         profiler.pass(fc.ctx, "direct lighting", |encoder| {
             compute::dispatch_pixels(
