@@ -96,6 +96,84 @@ pub struct GpuSceneInfo {
     pub _pad3: f32,
 }
 
+/// Size of the table the procedural sky is importance-sampled with.
+pub const SKY_BAKE_WIDTH: u32 = 128;
+pub const SKY_BAKE_HEIGHT: u32 = 64;
+
+/// Evaluates `environment_radiance` of `shaders/common/environment.wgsl` at the centre of every texel of a
+/// `SKY_BAKE_WIDTH` × `SKY_BAKE_HEIGHT` equirectangular grid and returns linear RGB.
+fn bake_environment(
+    ctx: &GpuContext,
+    scene_layout: &wgpu::BindGroupLayout,
+    scene_group: &wgpu::BindGroup,
+) -> Result<Vec<f32>, GpuError> {
+    const SOURCE: &str = "#import common/environment.wgsl
+@group(1) @binding(0) var<storage, read_write> baked: array<vec4f>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let i = id.x;
+    if i >= BAKE_W * BAKE_H {
+        return;
+    }
+    let uv = vec2f((f32(i % BAKE_W) + 0.5) / f32(BAKE_W), (f32(i / BAKE_W) + 0.5) / f32(BAKE_H));
+    baked[i] = vec4f(environment_radiance(equirect_direction(uv)), 1.0);
+}";
+    let device = &ctx.device;
+    let count = (SKY_BAKE_WIDTH * SKY_BAKE_HEIGHT) as u64;
+    let defines = crate::shaders::Defines::new().u32("BAKE_W", SKY_BAKE_WIDTH).u32("BAKE_H", SKY_BAKE_HEIGHT);
+    let module = crate::shaders::create_module(device, "environment bake", SOURCE, &defines)
+        .map_err(|e| GpuError::Other(e.to_string()))?;
+    let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("environment bake"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }],
+    });
+    let out = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("environment bake"),
+        size: count * 16,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let out_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("environment bake"),
+        layout: &out_layout,
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: out.as_entire_binding() }],
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("environment bake"),
+        bind_group_layouts: &[Some(scene_layout), Some(&out_layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("environment bake"),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, &out_group, &[]);
+        pass.dispatch_workgroups((count as u32).div_ceil(64), 1, 1);
+    }
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = super::readback::read_buffer(ctx, &out, 0, count * 16)?;
+    let rgba: &[f32] = bytemuck::cast_slice(&bytes);
+    Ok(rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
+}
+
 /// Largest texture layer edge; bigger images are downsampled (and a warning is recorded).
 pub const MAX_TEXTURE_SIZE: u32 = 2048;
 
@@ -573,21 +651,6 @@ impl GpuScene {
         let (linear, linear_bytes) =
             create_texture_array(ctx, scene, &linear_layers, wgpu::TextureFormat::Rgba8Unorm, &mut warnings);
         let textures = TextureArrays { srgb, linear, bytes: srgb_bytes + linear_bytes };
-        let env = device.create_texture_with_data(
-            &ctx.queue,
-            &wgpu::TextureDescriptor {
-                label: Some("environment map"),
-                size: wgpu::Extent3d { width: env_texels.0, height: env_texels.1, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba32Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            bytemuck::cast_slice(&env_texels.2),
-        );
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("scene textures"),
             address_mode_u: wgpu::AddressMode::Repeat,
@@ -608,30 +671,71 @@ impl GpuScene {
         };
         let srgb_view = array_view(&textures.srgb);
         let linear_view = array_view(&textures.linear);
-        let env_view = env.create_view(&Default::default());
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("scene"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: info_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: vertex_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: index_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: material_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: light_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: gpu_bvh.nodes.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: gpu_bvh.triangles.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 7, resource: emissive_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&srgb_view) },
-                wgpu::BindGroupEntry {
-                    binding: 9,
-                    resource: wgpu::BindingResource::TextureView(&linear_view),
+        let create_env = |width: u32, height: u32, rgba: &[f32]| {
+            device.create_texture_with_data(
+                &ctx.queue,
+                &wgpu::TextureDescriptor {
+                    label: Some("environment map"),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba32Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
                 },
-                wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::Sampler(&sampler) },
-                wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(&env_view) },
-                wgpu::BindGroupEntry { binding: 12, resource: emission_pdf_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 13, resource: env_cdf_buffer.as_entire_binding() },
-            ],
-        });
+                wgpu::util::TextureDataOrder::LayerMajor,
+                bytemuck::cast_slice(rgba),
+            )
+        };
+        let make_bind_group = |env: &wgpu::Texture, env_cdf: &wgpu::Buffer| {
+            let env_view = env.create_view(&Default::default());
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("scene"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: info_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: vertex_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: index_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: material_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: light_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 5, resource: gpu_bvh.nodes.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 6, resource: gpu_bvh.triangles.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: emissive_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: wgpu::BindingResource::TextureView(&srgb_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 9,
+                        resource: wgpu::BindingResource::TextureView(&linear_view),
+                    },
+                    wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::Sampler(&sampler) },
+                    wgpu::BindGroupEntry {
+                        binding: 11,
+                        resource: wgpu::BindingResource::TextureView(&env_view),
+                    },
+                    wgpu::BindGroupEntry { binding: 12, resource: emission_pdf_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 13, resource: env_cdf.as_entire_binding() },
+                ],
+            })
+        };
+        let mut env = create_env(env_texels.0, env_texels.1, &env_texels.2);
+        let mut env_cdf_buffer = env_cdf_buffer;
+        let mut bind_group = make_bind_group(&env, &env_cdf_buffer);
+        if info.env_kind == ENV_SKY {
+            // The procedural sky is importance-sampled through a table baked from the shader's own sky
+            // function (one source of truth); its radiance stays analytic.
+            let baked = bake_environment(ctx, &layout, &bind_group)?;
+            let (cdf, sum) = environment_cdf(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &baked);
+            info.env_weight_sum = sum;
+            ctx.queue.write_buffer(&info_buffer, 0, bytemuck::bytes_of(&info));
+            let rgba: Vec<f32> = baked.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
+            env = create_env(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &rgba);
+            env_cdf_buffer = buffer("environment cdf", bytemuck::cast_slice(&cdf), storage);
+            bind_group = make_bind_group(&env, &env_cdf_buffer);
+            env_texels = (SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, rgba);
+        }
         let memory_bytes = vertex_buffer.size()
             + index_buffer.size()
             + material_buffer.size()

@@ -39,9 +39,10 @@ fn environment_radiance(d: vec3f) -> vec3f {
 }
 
 // ---- Sampling the environment as a light ----
-// Maps are importance-sampled in proportion to luminance × sin θ (piecewise constant per texel, table
-// built by gpu/scene.rs `environment_cdf`); the uniform and sky environments, which are smooth, are
-// sampled cosine-weighted about the normal.
+// Maps and the procedural sky are importance-sampled in proportion to luminance × sin θ (piecewise
+// constant per texel of `environment_map`; table built by gpu/scene.rs `environment_cdf`, for the sky
+// from a bake of `environment_radiance` itself); a uniform environment is sampled cosine-weighted about
+// the normal, which is already ideal for it.
 
 struct EnvironmentSample {
     direction: vec3f,
@@ -95,8 +96,13 @@ fn sample_environment_map(u: vec2f) -> EnvironmentSample {
     let uv = vec2f((f32(x) + fx) / f32(w), (f32(y) + fy) / f32(h));
     s.direction = equirect_direction(uv);
     s.pdf = env_map_texel_pdf(x, y, w, h, sin(uv.y * PI));
-    s.radiance = textureLoad(environment_map, vec2u(x, y), 0).rgb * scene_info.env_intensity;
+    // The radiance every other path sees in that direction (for maps, the same texel).
+    s.radiance = environment_radiance(s.direction);
     return s;
+}
+
+fn environment_is_tabulated() -> bool {
+    return scene_info.env_kind == ENV_MAP || scene_info.env_kind == ENV_SKY;
 }
 
 fn environment_map_pdf(d: vec3f) -> f32 {
@@ -109,7 +115,7 @@ fn environment_map_pdf(d: vec3f) -> f32 {
 
 // A direction for next-event estimation of the environment at a surface with normal n.
 fn sample_environment_light(n: vec3f, u: vec2f) -> EnvironmentSample {
-    if scene_info.env_kind == ENV_MAP {
+    if environment_is_tabulated() {
         return sample_environment_map(u);
     }
     var s: EnvironmentSample;
@@ -121,7 +127,7 @@ fn sample_environment_light(n: vec3f, u: vec2f) -> EnvironmentSample {
 
 // Density with which `sample_environment_light` picks d (for MIS of BRDF-sampled escapes).
 fn environment_light_pdf(n: vec3f, d: vec3f) -> f32 {
-    if scene_info.env_kind == ENV_MAP {
+    if environment_is_tabulated() {
         return environment_map_pdf(d);
     }
     return pdf_cosine_hemisphere(dot(n, d));

@@ -26,7 +26,7 @@ const PARAMS: &[ParamSpec] = &[
         name: "env_samples",
         kind: ParamKind::Int { min: 0, max: 256 },
         default: "4",
-        doc: "ray-traced environment samples per pixel and frame (importance-sampled maps, cosine-weighted sky)",
+        doc: "ray-traced environment samples per pixel and frame (maps and sky importance-sampled)",
     },
     ParamSpec {
         name: "seed",
