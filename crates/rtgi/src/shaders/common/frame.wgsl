@@ -41,6 +41,12 @@ struct ShadowView {
 @group(1) @binding(7) var shadow_sampler: sampler_comparison;
 @group(1) @binding(8) var<storage, read> shadow_views: array<ShadowView>;
 
+// Progressive accumulation: the mean of `n + 1` samples from the mean of the first `n` and one more
+// (the first sample replaces whatever the output held).
+fn accumulate_mean(previous_mean: vec3f, sample: vec3f, n: u32) -> vec3f {
+    return select(mix(previous_mean, sample, 1.0 / (f32(n) + 1.0)), sample, n == 0u);
+}
+
 // Unit direction of the primary ray through the centre of `pixel`.
 fn primary_ray_direction(pixel: vec2u) -> vec3f {
     let ndc = vec2f(

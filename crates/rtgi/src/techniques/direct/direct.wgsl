@@ -81,8 +81,6 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             radiance += sum / f32(ENV_SAMPLES);
         }
     }
-    let k = f32(frame.frame_index);
-    let previous = textureLoad(output, id.xy).rgb;
-    let blended = select(mix(previous, radiance, 1.0 / (k + 1.0)), radiance, frame.frame_index == 0u);
-    textureStore(output, id.xy, vec4f(blended, 1.0));
+    let mean = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.frame_index);
+    textureStore(output, id.xy, vec4f(mean, 1.0));
 }

@@ -154,9 +154,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let n = frame.frame_index * SPP + sample_index;
     var rng = rng_new(id.xy, n, frame.seed);
     let radiance = trace_path(id.xy, &rng, &rays);
-    // Running mean over all samples so far.
-    let previous = textureLoad(output, id.xy).rgb;
-    let blended = select(mix(previous, radiance, 1.0 / (f32(n) + 1.0)), radiance, n == 0u);
-    textureStore(output, id.xy, vec4f(blended, 1.0));
+    let mean = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, n);
+    textureStore(output, id.xy, vec4f(mean, 1.0));
     atomicAdd(&ray_count, rays);
 }
