@@ -86,8 +86,7 @@ pub struct GpuSceneInfo {
     pub sun_direction: [f32; 3],
     pub emissive_power: f32,
     pub sun_radiance: [f32; 3],
-    /// Sum of luminance × sin θ over the environment map's texels (the normaliser of its sampling pdf).
-    pub env_weight_sum: f32,
+    pub _pad0: f32,
     pub ground_radiance: [f32; 3],
     pub _pad1: f32,
     pub bounds_min: [f32; 3],
@@ -559,7 +558,7 @@ impl GpuScene {
             sun_direction: [0.0, 1.0, 0.0],
             emissive_power: total_power as f32,
             sun_radiance: [0.0; 3],
-            env_weight_sum: 0.0,
+            _pad0: 0.0,
             ground_radiance: [0.0; 3],
             _pad1: 0.0,
             bounds_min: bounds.min.into(),
@@ -594,9 +593,7 @@ impl GpuScene {
                 }
                 let rgba: Vec<f32> = map.rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
                 env_texels = (map.width, map.height, rgba);
-                let (cdf, sum) = environment_cdf(map.width, map.height, &map.rgb);
-                env_cdf = cdf;
-                info.env_weight_sum = sum;
+                env_cdf = environment_cdf(map.width, map.height, &map.rgb);
             }
         }
 
@@ -727,9 +724,7 @@ impl GpuScene {
             // The procedural sky is importance-sampled through a table baked from the shader's own sky
             // function (one source of truth); its radiance stays analytic.
             let baked = bake_environment(ctx, &layout, &bind_group)?;
-            let (cdf, sum) = environment_cdf(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &baked);
-            info.env_weight_sum = sum;
-            ctx.queue.write_buffer(&info_buffer, 0, bytemuck::bytes_of(&info));
+            let cdf = environment_cdf(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &baked);
             let rgba: Vec<f32> = baked.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
             env = create_env(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &rgba);
             env_cdf_buffer = buffer("environment cdf", bytemuck::cast_slice(&cdf), storage);
@@ -779,8 +774,8 @@ impl GpuScene {
 
 /// The sampling table of an equirectangular map, proportional to luminance × sin θ (the solid angle of a
 /// texel row): `height` marginal CDF values over rows, then `width` conditional CDF values per row, each
-/// running sum normalised to end at 1. Returns the table and the unnormalised total weight.
-pub fn environment_cdf(width: u32, height: u32, rgb: &[f32]) -> (Vec<f32>, f32) {
+/// running sum normalised to end at 1.
+pub fn environment_cdf(width: u32, height: u32, rgb: &[f32]) -> Vec<f32> {
     let (w, h) = (width as usize, height as usize);
     let mut table = vec![0.0f32; h + w * h];
     let mut row_sums = vec![0.0f64; h];
@@ -806,7 +801,7 @@ pub fn environment_cdf(width: u32, height: u32, rgb: &[f32]) -> (Vec<f32>, f32) 
         running += row_sums[y];
         table[y] = if total > 0.0 { (running / total) as f32 } else { (y + 1) as f32 / h as f32 };
     }
-    (table, total as f32)
+    table
 }
 
 fn mean_srgb_luminance(t: &crate::scene::Texture) -> f32 {

@@ -79,7 +79,7 @@ struct SceneInfo {
     sun_direction: vec3f,
     emissive_power: f32,
     sun_radiance: vec3f,
-    env_weight_sum: f32,
+    _pad0: f32,
     ground_radiance: vec3f,
     _pad1: f32,
     bounds_min: vec3f,
