@@ -103,6 +103,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bar.finish_and_clear();
     }
     let output = result?;
+    for warning in &output.stats.warnings {
+        eprintln!("warning: {warning}");
+    }
 
     create_parent(&args.out)?;
     output.image.write(&args.out, &ToneMap { exposure_ev: args.exposure })?;

@@ -71,6 +71,8 @@ pub struct RenderStats {
     pub gpu_scene_bytes: u64,
     /// Technique-specific counters (e.g. VPL counts, bytes per pixel).
     pub counters: BTreeMap<String, f64>,
+    /// What the GPU upload had to change (e.g. textures downsampled to the array size).
+    pub warnings: Vec<String>,
 }
 
 /// A finished render.
@@ -162,6 +164,7 @@ pub fn render(
         bvh_build_ms: gpu_scene.bvh_build_ms,
         gpu_scene_bytes: gpu_scene.memory_bytes,
         counters,
+        warnings: gpu_scene.warnings.clone(),
     };
     Ok(RenderOutput { image, stats })
 }

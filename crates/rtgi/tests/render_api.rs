@@ -107,3 +107,24 @@ fn invalid_settings_are_clear_errors() {
     let e = render(&ctx, &scene, &settings("direct", 100_000, 8), &mut |_, _| {}).err().expect("error");
     assert!(e.to_string().contains("max_texture_dimension_2d"), "{e}");
 }
+
+/// Changes the GPU upload has to make are reported, not silent: a texture wider than the array limit
+/// is downsampled with a warning in the stats.
+#[test]
+fn downsampled_textures_are_reported() {
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let mut scene = small_scene();
+    let width = rtgi::gpu::scene::MAX_TEXTURE_SIZE * 2;
+    scene.textures.push(rtgi::scene::Texture {
+        name: "wide".into(),
+        width,
+        height: 2,
+        rgba8: vec![200; (width * 2 * 4) as usize],
+        srgb: true,
+    });
+    scene.materials[0].base_color_texture = Some(rtgi::scene::TextureRef::new(0));
+    let out = render(&ctx, &scene, &settings("direct", 16, 16), &mut |_, _| {}).expect("render");
+    assert!(out.stats.warnings.iter().any(|w| w.contains("downsampled")), "{:?}", out.stats.warnings);
+    let plain = render(&ctx, &small_scene(), &settings("direct", 16, 16), &mut |_, _| {}).expect("render");
+    assert!(plain.stats.warnings.is_empty(), "{:?}", plain.stats.warnings);
+}
