@@ -133,6 +133,9 @@ pub struct FrameResources {
     shadow_bind_group: wgpu::BindGroup,
     shadow_pipeline: Option<wgpu::RenderPipeline>,
     shadows_rendered: bool,
+    /// Render-target views of the G-buffer (in `GBufferOut` order) and its depth, made once.
+    gbuffer_targets: Vec<wgpu::TextureView>,
+    gbuffer_depth: wgpu::TextureView,
 }
 
 fn target(ctx: &GpuContext, label: &str, w: u32, h: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
@@ -465,6 +468,12 @@ impl FrameResources {
             ..Default::default()
         });
 
+        let gbuffer_targets: Vec<wgpu::TextureView> =
+            [&gbuffer.albedo, &gbuffer.normal, &gbuffer.material, &gbuffer.emission, &gbuffer.distance]
+                .iter()
+                .map(|t| t.create_view(&Default::default()))
+                .collect();
+        let gbuffer_depth = gbuffer.depth.create_view(&Default::default());
         let bind_group_layout = frame_layout(device);
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
         let shadow_array_view = shadow_maps.create_view(&wgpu::TextureViewDescriptor {
@@ -591,6 +600,8 @@ impl FrameResources {
             shadow_bind_group,
             shadow_pipeline,
             shadows_rendered: false,
+            gbuffer_targets,
+            gbuffer_depth,
         })
     }
 
@@ -634,14 +645,8 @@ impl FrameResources {
             self.shadows_rendered = true;
         }
         profiler.pass(ctx, "gbuffer", |encoder| {
-            let views = [
-                self.gbuffer.albedo.create_view(&Default::default()),
-                self.gbuffer.normal.create_view(&Default::default()),
-                self.gbuffer.material.create_view(&Default::default()),
-                self.gbuffer.emission.create_view(&Default::default()),
-                self.gbuffer.distance.create_view(&Default::default()),
-            ];
-            let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
+            let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = self
+                .gbuffer_targets
                 .iter()
                 .map(|v| {
                     Some(wgpu::RenderPassColorAttachment {
@@ -655,12 +660,11 @@ impl FrameResources {
                     })
                 })
                 .collect();
-            let depth_view = self.gbuffer.depth.create_view(&Default::default());
             draw_scene(
                 encoder,
                 "gbuffer",
                 &attachments,
-                &depth_view,
+                &self.gbuffer_depth,
                 &self.gbuffer_pipeline,
                 scene,
                 (&self.camera_bind_group, &[]),
