@@ -5,6 +5,7 @@
 //! radiance into the shared output texture. Adding a technique touches its own folder plus one line in
 //! [`registry`].
 
+pub mod compute;
 pub mod direct;
 pub mod path;
 
@@ -80,75 +81,4 @@ pub fn resolve(
     })?;
     let values = ParamValues::from_settings(name, info.params, settings)?;
     Ok((info, values))
-}
-
-/// Helpers for the common shape of a technique pass: a compute pipeline over bind groups 0 (scene),
-/// 1 (frame) and 2 (the technique's own resources).
-pub mod compute {
-    use crate::gpu::GpuContext;
-    use crate::shaders::{self, Defines, ShaderError};
-
-    /// Workgroup edge of screen-space compute passes (passed to WGSL as `TILE`).
-    pub const TILE: u32 = 8;
-
-    pub fn pipeline(
-        ctx: &GpuContext,
-        name: &str,
-        source: &str,
-        defines: Defines,
-        entry: &str,
-        layouts: &[&wgpu::BindGroupLayout],
-    ) -> Result<wgpu::ComputePipeline, ShaderError> {
-        let module = shaders::create_module(&ctx.device, name, source, &defines.u32("TILE", TILE))?;
-        let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|l| Some(*l)).collect();
-        let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(name),
-            bind_group_layouts: &layouts,
-            immediate_size: 0,
-        });
-        Ok(ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(name),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        }))
-    }
-
-    /// A bind-group layout entry for a storage texture visible to compute shaders.
-    pub fn storage_texture_entry(
-        binding: u32,
-        format: wgpu::TextureFormat,
-        access: wgpu::StorageTextureAccess,
-    ) -> wgpu::BindGroupLayoutEntry {
-        wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::StorageTexture {
-                access,
-                format,
-                view_dimension: wgpu::TextureViewDimension::D2,
-            },
-            count: None,
-        }
-    }
-
-    /// Dispatches one thread per pixel in TILE×TILE workgroups.
-    pub fn dispatch_pixels(
-        encoder: &mut wgpu::CommandEncoder,
-        label: &str,
-        pipeline: &wgpu::ComputePipeline,
-        bind_groups: &[&wgpu::BindGroup],
-        width: u32,
-        height: u32,
-    ) {
-        let mut pass = encoder
-            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
-        pass.set_pipeline(pipeline);
-        for (i, g) in bind_groups.iter().enumerate() {
-            pass.set_bind_group(i as u32, *g, &[]);
-        }
-        pass.dispatch_workgroups(width.div_ceil(TILE), height.div_ceil(TILE), 1);
-    }
 }

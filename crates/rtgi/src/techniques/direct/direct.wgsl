@@ -1,6 +1,7 @@
 // Direct lighting from the G-buffer: emission, analytic lights through shadow maps, and (ray traced
 // through the shared BVH) emissive triangles and the environment. Progressive: frame k averages its
-// estimate into the output with weight 1/(k+1), so `--frames N` converges the stochastic terms.
+// estimate into the output with weight 1/(k+1), so `--frames N` converges the stochastic terms
+// (unless ACCUMULATE is false: then a GI technique adds its indirect light and accumulates the sum).
 
 #import common/frame.wgsl
 #import common/environment.wgsl
@@ -81,6 +82,8 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             radiance += sum / f32(ENV_SAMPLES);
         }
     }
-    let mean = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.frame_index);
-    textureStore(output, id.xy, vec4f(mean, 1.0));
+    if ACCUMULATE {
+        radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.frame_index);
+    }
+    textureStore(output, id.xy, vec4f(radiance, 1.0));
 }

@@ -11,7 +11,8 @@ use crate::shaders::Defines;
 use super::compute::{self, storage_texture_entry};
 use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
 
-const PARAMS: &[ParamSpec] = &[
+/// The parameters of direct lighting, which every technique that adds indirect light to it also takes.
+pub const DIRECT_PARAMS: [ParamSpec; 7] = [
     SHADOW_PARAMS[0],
     SHADOW_PARAMS[1],
     SHADOW_PARAMS[2],
@@ -39,40 +40,76 @@ const PARAMS: &[ParamSpec] = &[
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "direct",
     description: "direct light only: shadow-mapped analytic lights, ray-traced area lights and environment",
-    params: PARAMS,
+    params: &DIRECT_PARAMS,
     needs: FrameNeeds { gbuffer: true },
     create,
 };
 
-struct Direct {
+/// The direct-lighting pass, reusable by techniques that add indirect light: it writes this frame's
+/// estimate into a target texture, either averaged progressively over frames (`Accumulate`) or
+/// replacing it (`Replace`, for a technique that combines it with its own terms).
+pub struct DirectLighting {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectOutput {
+    Accumulate,
+    Replace,
+}
+
+impl DirectLighting {
+    /// `target` must have the `OUTPUT_FORMAT` and storage usage; `setup.params` must hold [`DIRECT_PARAMS`].
+    pub fn new(
+        setup: &TechniqueSetup,
+        target: &wgpu::Texture,
+        mode: DirectOutput,
+    ) -> Result<Self, RenderError> {
+        let ctx = setup.ctx;
+        let layout = compute::layout(
+            ctx,
+            "direct",
+            &[storage_texture_entry(0, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite)],
+        );
+        let view = target.create_view(&Default::default());
+        let bind_group =
+            compute::bind_group(ctx, "direct", &layout, &[wgpu::BindingResource::TextureView(&view)]);
+        let defines = Defines::new()
+            .u32("AREA_SAMPLES", setup.params.int("area_samples") as u32)
+            .u32("ENV_SAMPLES", setup.params.int("env_samples") as u32)
+            .bool("ACCUMULATE", mode == DirectOutput::Accumulate);
+        let pipeline = compute::pipeline(
+            ctx,
+            "direct",
+            include_str!("direct.wgsl"),
+            defines,
+            "main",
+            &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
+        )?;
+        Ok(DirectLighting { pipeline, bind_group })
+    }
+
+    /// Records the pass as "direct lighting".
+    pub fn render(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        profiler.pass(fc.ctx, "direct lighting", |encoder| {
+            compute::dispatch_pixels(
+                encoder,
+                "direct lighting",
+                &self.pipeline,
+                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.bind_group],
+                fc.frame.width,
+                fc.frame.height,
+            );
+        })?;
+        Ok(())
+    }
+}
+
+struct Direct(DirectLighting);
+
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
-    let device = &setup.ctx.device;
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("direct"),
-        entries: &[storage_texture_entry(0, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite)],
-    });
-    let view = setup.output.create_view(&Default::default());
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("direct"),
-        layout: &layout,
-        entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) }],
-    });
-    let defines = Defines::new()
-        .u32("AREA_SAMPLES", setup.params.int("area_samples") as u32)
-        .u32("ENV_SAMPLES", setup.params.int("env_samples") as u32);
-    let pipeline = compute::pipeline(
-        setup.ctx,
-        "direct",
-        include_str!("direct.wgsl"),
-        defines,
-        "main",
-        &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
-    )?;
-    Ok(Box::new(Direct { pipeline, bind_group }))
+    Ok(Box::new(Direct(DirectLighting::new(setup, setup.output, DirectOutput::Accumulate)?)))
 }
 
 impl Technique for Direct {
@@ -88,17 +125,7 @@ impl Technique for Direct {
     }
 
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        profiler.pass(fc.ctx, "direct lighting", |encoder| {
-            compute::dispatch_pixels(
-                encoder,
-                "direct lighting",
-                &self.pipeline,
-                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.bind_group],
-                fc.frame.width,
-                fc.frame.height,
-            );
-        })?;
-        Ok(())
+        self.0.render(fc, profiler)
     }
 }
 
@@ -111,7 +138,11 @@ mod tests {
         validate(
             "direct",
             include_str!("direct.wgsl"),
-            &Defines::new().u32("TILE", 8).u32("AREA_SAMPLES", 4).u32("ENV_SAMPLES", 4),
+            &Defines::new()
+                .u32("TILE", 8)
+                .u32("AREA_SAMPLES", 4)
+                .u32("ENV_SAMPLES", 4)
+                .bool("ACCUMULATE", true),
         );
     }
 }

@@ -1,0 +1,178 @@
+//! Helpers for the common shape of a technique pass: a compute pipeline over bind groups 0 (scene),
+//! 1 (frame) and 2 (the technique's own resources), and the textures and buffers those passes use.
+
+use crate::gpu::GpuContext;
+use crate::shaders::{self, Defines, ShaderError};
+
+/// Workgroup edge of screen-space compute passes (passed to WGSL as `TILE`).
+pub const TILE: u32 = 8;
+
+pub fn pipeline(
+    ctx: &GpuContext,
+    name: &str,
+    source: &str,
+    defines: Defines,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> Result<wgpu::ComputePipeline, ShaderError> {
+    let module = shaders::create_module(&ctx.device, name, source, &defines.u32("TILE", TILE))?;
+    let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|l| Some(*l)).collect();
+    let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(name),
+        bind_group_layouts: &layouts,
+        immediate_size: 0,
+    });
+    Ok(ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(name),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    }))
+}
+
+/// A bind-group layout entry for a storage texture visible to compute shaders.
+pub fn storage_texture_entry(
+    binding: u32,
+    format: wgpu::TextureFormat,
+    access: wgpu::StorageTextureAccess,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access,
+            format,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
+}
+
+/// A bind-group layout entry for a sampled (read with `textureLoad`) 2D texture.
+pub fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A bind-group layout entry for a storage buffer.
+pub fn storage_buffer_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A bind-group layout entry for a uniform buffer.
+pub fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A bind group whose entries are `resources` in binding order 0, 1, 2...
+pub fn bind_group(
+    ctx: &GpuContext,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    resources: &[wgpu::BindingResource],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = resources
+        .iter()
+        .enumerate()
+        .map(|(i, r)| wgpu::BindGroupEntry { binding: i as u32, resource: r.clone() })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries: &entries })
+}
+
+/// A bind-group layout from `entries`.
+pub fn layout(
+    ctx: &GpuContext,
+    label: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> wgpu::BindGroupLayout {
+    ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
+}
+
+/// A screen-sized (or any) 2D texture that compute passes write as storage and read with `textureLoad`.
+pub fn storage_texture(
+    ctx: &GpuContext,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
+    ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// A storage buffer of `size` bytes (zeroed), readable back for tests and counters.
+pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Dispatches one thread per pixel in TILE×TILE workgroups.
+pub fn dispatch_pixels(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_groups: &[&wgpu::BindGroup],
+    width: u32,
+    height: u32,
+) {
+    dispatch(encoder, label, pipeline, bind_groups, [width.div_ceil(TILE), height.div_ceil(TILE), 1]);
+}
+
+/// Dispatches `workgroups` workgroups.
+pub fn dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_groups: &[&wgpu::BindGroup],
+    workgroups: [u32; 3],
+) {
+    let mut pass = encoder
+        .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+    pass.set_pipeline(pipeline);
+    for (i, g) in bind_groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, *g, &[]);
+    }
+    pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+}
