@@ -7,6 +7,7 @@
 
 pub mod compute;
 pub mod direct;
+pub mod discontinuity;
 pub mod path;
 
 use std::collections::BTreeMap;

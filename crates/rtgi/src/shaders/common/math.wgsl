@@ -80,3 +80,13 @@ fn equirect_uv(d: vec3f) -> vec2f {
     let v = acos(clamp(d.y, -1.0, 1.0)) * INV_PI;
     return vec2f(u, v);
 }
+
+// Four half floats in two words: the storage format of per-pixel intermediate data (SH coefficients,
+// irradiance) that does not need f32 precision.
+fn pack_half4(v: vec4f) -> vec2u {
+    return vec2u(pack2x16float(v.xy), pack2x16float(v.zw));
+}
+
+fn unpack_half4(p: vec2u) -> vec4f {
+    return vec4f(unpack2x16float(p.x), unpack2x16float(p.y));
+}
