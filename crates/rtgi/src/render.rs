@@ -164,7 +164,7 @@ pub fn render(
         bvh_build_ms: gpu_scene.bvh_build_ms,
         gpu_scene_bytes: gpu_scene.memory_bytes,
         counters,
-        warnings: gpu_scene.warnings.clone(),
+        warnings: gpu_scene.warnings.iter().cloned().chain(technique.warnings()).collect(),
     };
     Ok(RenderOutput { image, stats })
 }

@@ -103,7 +103,7 @@ pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// Bytes per pixel of the G-buffer (targets + depth).
 pub const GBUFFER_BYTES_PER_PIXEL: u32 = 8 + 8 + 8 + 8 + 4 + 4;
 
-const SHADOW_VIEW_STRIDE: u64 = 256;
+pub(crate) const SHADOW_VIEW_STRIDE: u64 = 256;
 
 pub struct GBuffer {
     pub albedo: wgpu::Texture,
@@ -213,7 +213,8 @@ pub fn shadow_views(lights: &mut [GpuLight], scene: &Scene, size: u32) -> Vec<Sh
 }
 
 fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let vis = wgpu::ShaderStages::COMPUTE | wgpu::ShaderStages::FRAGMENT;
+    // Vertex shaders too: splats place their quads with the camera.
+    let vis = wgpu::ShaderStages::COMPUTE | wgpu::ShaderStages::VERTEX_FRAGMENT;
     let tex = |binding, sample_type| wgpu::BindGroupLayoutEntry {
         binding,
         visibility: vis,
@@ -273,7 +274,7 @@ fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::BindGroupLayout {
+pub(crate) fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("pass uniforms"),
         entries: &[wgpu::BindGroupLayoutEntry {
@@ -291,7 +292,7 @@ fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::BindGroupLayout
 
 /// A pipeline that rasterises the whole scene (one indexed draw of the GPU scene's vertex buffer) with
 /// a less-than depth test and no culling (rtgi shades both sides of every surface).
-fn scene_raster_pipeline(
+pub(crate) fn scene_raster_pipeline(
     device: &wgpu::Device,
     label: &str,
     layout: &wgpu::PipelineLayout,
@@ -328,7 +329,7 @@ fn scene_raster_pipeline(
 }
 
 /// Records one draw of the whole scene into a depth (and optional colour) pass.
-fn draw_scene(
+pub(crate) fn draw_scene(
     encoder: &mut wgpu::CommandEncoder,
     label: &str,
     colors: &[Option<wgpu::RenderPassColorAttachment>],

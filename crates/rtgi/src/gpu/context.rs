@@ -101,6 +101,8 @@ impl GpuContext {
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
             | wgpu::Features::FLOAT32_FILTERABLE
+            // Additive blending into rgba32float (splatting techniques).
+            | wgpu::Features::FLOAT32_BLENDABLE
             // Read-write storage access to rgba32float, for in-place accumulation of radiance.
             | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
         let features = available & wanted;

@@ -9,6 +9,7 @@ pub mod compute;
 pub mod direct;
 pub mod discontinuity;
 pub mod path;
+pub mod rsm;
 
 use std::collections::BTreeMap;
 
@@ -47,6 +48,11 @@ pub trait Technique {
         let _ = ctx;
         Ok(BTreeMap::new())
     }
+
+    /// What the technique cannot render of this scene (e.g. light types it ignores), for the stats.
+    fn warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// The frame inputs a technique reads; the frame core skips what nobody needs.
@@ -66,7 +72,7 @@ pub struct TechniqueInfo {
 
 /// Every technique, in the order `rtgi list` prints them.
 pub fn registry() -> &'static [TechniqueInfo] {
-    &[direct::INFO, path::INFO]
+    &[direct::INFO, path::INFO, rsm::RSM_INFO, rsm::RSM_INTERLEAVED_INFO, rsm::SII_INFO]
 }
 
 /// Finds a technique and validates `settings` against its parameters.

@@ -71,9 +71,28 @@ struct GSurface {
 }
 
 fn load_gsurface(pixel: vec2u) -> GSurface {
-    var s: GSurface;
     let p = vec2i(pixel);
-    s.distance = textureLoad(gb_distance, p, 0).r;
+    let distance = textureLoad(gb_distance, p, 0).r;
+    if distance <= 0.0 {
+        return decode_gsurface(pixel, distance, vec4f(0.0), vec4f(0.0), vec2u(0u));
+    }
+    var s = decode_gsurface(
+        pixel,
+        distance,
+        textureLoad(gb_normal, p, 0),
+        textureLoad(gb_albedo, p, 0),
+        textureLoad(gb_material, p, 0).xy,
+    );
+    s.material.emission = textureLoad(gb_emission, p, 0).rgb;
+    return s;
+}
+
+// Decodes the G-buffer texels of `pixel` (distance, normal, albedo and material targets; emission is
+// left at zero). Techniques that keep G-buffer copies in another layout (e.g. interleaved sub-buffers)
+// decode them with this too.
+fn decode_gsurface(pixel: vec2u, distance: f32, nrm: vec4f, alb: vec4f, mat: vec2u) -> GSurface {
+    var s: GSurface;
+    s.distance = distance;
     let dir = primary_ray_direction(pixel);
     s.view = -dir;
     s.valid = s.distance > 0.0;
@@ -81,11 +100,8 @@ fn load_gsurface(pixel: vec2u) -> GSurface {
         return s;
     }
     s.position = frame.camera_position + dir * s.distance;
-    let nrm = textureLoad(gb_normal, p, 0);
     s.normal = oct_decode(nrm.xy);
     s.geometric_normal = oct_decode(nrm.zw);
-    let alb = textureLoad(gb_albedo, p, 0);
-    let mat = textureLoad(gb_material, p, 0);
     let params = unpack4x8unorm(mat.y);
     s.material_index = mat.x;
     s.material.base_color = alb.rgb;
@@ -93,7 +109,6 @@ fn load_gsurface(pixel: vec2u) -> GSurface {
     s.material.alpha = 1.0;
     s.material.roughness = params.x;
     s.material.specular = params.y;
-    s.material.emission = textureLoad(gb_emission, p, 0).rgb;
     return s;
 }
 

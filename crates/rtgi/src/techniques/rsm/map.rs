@@ -1,0 +1,333 @@
+//! Reflective shadow maps: for every analytic light (spot: one layer, point: six cube-face layers,
+//! directional: one fitted orthographic layer, the same views as the frame core's shadow maps), the
+//! scene rendered from the light with three render targets: world position (+ the texel's beam
+//! cross-section), normal, and reflected radiant intensity I_p = Φ_p/π.
+
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+use crate::frame::{self, DEPTH_FORMAT, SHADOW_VIEW_STRIDE};
+use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::gpu::{GpuContext, GpuScene, Profiler};
+use crate::render::RenderError;
+use crate::scene::Scene;
+use crate::shaders::{self, Defines};
+
+pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub const INTENSITY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Bytes per RSM texel (position, normal, intensity and depth).
+pub const BYTES_PER_TEXEL: u32 = 16 + 8 + 16 + 4;
+
+/// One RSM layer's view; mirrors `RsmView` in `view.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct RsmView {
+    pub view_proj: [[f32; 4]; 4],
+    pub light: u32,
+    pub orthographic: u32,
+    pub texel: f32,
+    pub size: f32,
+}
+
+/// The source of `view.wgsl` (the `RsmView` struct), to prepend to every shader that uses it.
+pub const VIEW_WGSL: &str = include_str!("view.wgsl");
+/// The source of `rsm.wgsl` (bind group 3 and the pixel-light kernel).
+pub const RSM_WGSL: &str = include_str!("rsm.wgsl");
+
+/// The RSM pixel-light kernel alone (no bindings).
+pub const KERNEL_WGSL: &str = include_str!("kernel.wgsl");
+
+/// `view.wgsl` + `kernel.wgsl` + `rsm.wgsl` + `body`: the source of a shader that reads the RSM.
+pub fn reader_source(body: &str) -> String {
+    format!("{VIEW_WGSL}\n{KERNEL_WGSL}\n{RSM_WGSL}\n{body}")
+}
+
+/// The reflective shadow maps of a scene's analytic lights.
+pub struct ReflectiveShadowMap {
+    pub size: u32,
+    #[allow(dead_code)]
+    pub layers: u32,
+    /// Scene lights with `shadow_layer` set to their first RSM layer (-1 for none).
+    pub lights: Vec<GpuLight>,
+    pub views: Vec<RsmView>,
+    pub position: wgpu::Texture,
+    pub normal: wgpu::Texture,
+    pub intensity: wgpu::Texture,
+    depth: wgpu::Texture,
+    pipeline: Option<wgpu::RenderPipeline>,
+    view_bind_group: wgpu::BindGroup,
+    /// Bind group 3 of the shaders built with [`reader_source`].
+    pub layout: wgpu::BindGroupLayout,
+    pub bind_group: wgpu::BindGroup,
+    /// What the RSM cannot represent (emissive triangles, environment light).
+    pub warnings: Vec<String>,
+    rendered: bool,
+}
+
+fn array_texture(ctx: &GpuContext, label: &str, size: u32, layers: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
+    ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// Visibility of the RSM bindings: compute passes, and the vertex and fragment stages of splats.
+pub const READ_STAGES: wgpu::ShaderStages =
+    wgpu::ShaderStages::COMPUTE.union(wgpu::ShaderStages::VERTEX_FRAGMENT);
+
+fn read_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
+    let tex = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: READ_STAGES,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let buf = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: READ_STAGES,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("rsm read"),
+        entries: &[tex(0), tex(1), tex(2), buf(3), buf(4)],
+    })
+}
+
+impl ReflectiveShadowMap {
+    pub fn new(ctx: &GpuContext, scene: &Scene, gpu_scene: &GpuScene, size: u32) -> Result<Self, RenderError> {
+        let device = &ctx.device;
+        let limits = ctx.limits();
+        if size > limits.max_texture_dimension_2d {
+            return Err(RenderError::InvalidSettings(format!(
+                "rsm_size {size} exceeds the device's max_texture_dimension_2d of {}",
+                limits.max_texture_dimension_2d
+            )));
+        }
+        let mut lights = gpu_scene.lights.clone();
+        let shadow_views = frame::shadow_views(&mut lights, scene, size);
+        let mut views = Vec::with_capacity(shadow_views.len());
+        for (index, light) in lights.iter().enumerate() {
+            let count = match light.kind {
+                LIGHT_POINT => 6,
+                LIGHT_SPOT | LIGHT_DIRECTIONAL => 1,
+                _ => 0,
+            };
+            for k in 0..count {
+                let v = &shadow_views[(light.shadow_layer + k) as usize];
+                views.push(RsmView {
+                    view_proj: v.view_proj,
+                    light: index as u32,
+                    orthographic: u32::from(light.kind == LIGHT_DIRECTIONAL),
+                    texel: v.params[0],
+                    size: size as f32,
+                });
+            }
+        }
+        let mut warnings = Vec::new();
+        if gpu_scene.info.emissive_count > 0 {
+            warnings.push(
+                "RSM techniques only handle analytic lights: the light of emissive triangles gets no \
+                 indirect bounce (it is still in the direct term)"
+                    .to_string(),
+            );
+        }
+        if !matches!(scene.environment, crate::scene::Environment::None) {
+            warnings.push(
+                "RSM techniques only handle analytic lights: the environment's light gets no indirect \
+                 bounce (it is still in the direct term)"
+                    .to_string(),
+            );
+        }
+        if views.is_empty() {
+            warnings.push("no analytic light: RSM techniques add no indirect light".to_string());
+        }
+        let layers = views.len().max(1) as u32;
+        if layers > limits.max_texture_array_layers {
+            return Err(RenderError::InvalidSettings(format!(
+                "{layers} RSM layers exceed the device's max_texture_array_layers of {}",
+                limits.max_texture_array_layers
+            )));
+        }
+        let position = array_texture(ctx, "rsm position", size, layers, POSITION_FORMAT);
+        let normal = array_texture(ctx, "rsm normal", size, layers, NORMAL_FORMAT);
+        let intensity = array_texture(ctx, "rsm intensity", size, layers, INTENSITY_FORMAT);
+        let depth = array_texture(ctx, "rsm depth", size, layers, DEPTH_FORMAT);
+
+        let view_data: Vec<RsmView> = if views.is_empty() { vec![RsmView::zeroed()] } else { views.clone() };
+        let mut slots = vec![0u8; SHADOW_VIEW_STRIDE as usize * view_data.len()];
+        for (i, v) in view_data.iter().enumerate() {
+            let o = i * SHADOW_VIEW_STRIDE as usize;
+            slots[o..o + size_of::<RsmView>()].copy_from_slice(bytemuck::bytes_of(v));
+        }
+        let slot_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rsm view slots"),
+            contents: &slots,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let view_layout = frame::uniform_layout(device, true);
+        let view_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("rsm view"),
+            layout: &view_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &slot_buffer,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(size_of::<RsmView>() as u64),
+                }),
+            }],
+        });
+        let pipeline = if views.is_empty() {
+            None
+        } else {
+            let module = shaders::create_module(
+                device,
+                "rsm map",
+                &format!("{VIEW_WGSL}\n{}", include_str!("map.wgsl")),
+                &Defines::new(),
+            )?;
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("rsm map"),
+                bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&view_layout)],
+                immediate_size: 0,
+            });
+            let color =
+                |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+            Some(frame::scene_raster_pipeline(
+                device,
+                "rsm map",
+                &layout,
+                &module,
+                &[color(POSITION_FORMAT), color(NORMAL_FORMAT), color(INTENSITY_FORMAT)],
+            ))
+        };
+
+        let views_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rsm views"),
+            contents: bytemuck::cast_slice(&view_data),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let light_data: Vec<GpuLight> = if lights.is_empty() {
+            vec![GpuLight { shadow_layer: -1, ..GpuLight::zeroed() }]
+        } else {
+            lights.clone()
+        };
+        let lights_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rsm lights"),
+            contents: bytemuck::cast_slice(&light_data),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let layout = read_layout(ctx);
+        let array_view = |t: &wgpu::Texture| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        };
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("rsm read"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&array_view(&position)),
+                },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&array_view(&normal)) },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&array_view(&intensity)),
+                },
+                wgpu::BindGroupEntry { binding: 3, resource: views_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: lights_buffer.as_entire_binding() },
+            ],
+        });
+        Ok(ReflectiveShadowMap {
+            size,
+            layers,
+            lights: light_data,
+            views,
+            position,
+            normal,
+            intensity,
+            depth,
+            pipeline,
+            view_bind_group,
+            layout,
+            bind_group,
+            warnings,
+            rendered: false,
+        })
+    }
+
+    /// Texels of all layers.
+    pub fn texels(&self) -> u32 {
+        self.size * self.size * self.views.len() as u32
+    }
+
+    /// Renders the maps as the pass "rsm" (once: scene and lights are static).
+    pub fn render(&mut self, ctx: &GpuContext, scene: &GpuScene, profiler: &mut Profiler) -> Result<(), RenderError> {
+        if self.rendered {
+            return Ok(());
+        }
+        self.rendered = true;
+        let Some(pipeline) = &self.pipeline else {
+            return Ok(());
+        };
+        profiler.pass(ctx, "rsm", |encoder| {
+            let layer_view = |t: &wgpu::Texture, layer: u32| {
+                t.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: layer,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            };
+            for layer in 0..self.views.len() as u32 {
+                let targets = [&self.position, &self.normal, &self.intensity].map(|t| layer_view(t, layer));
+                let colors: Vec<Option<wgpu::RenderPassColorAttachment>> = targets
+                    .iter()
+                    .map(|view| {
+                        Some(wgpu::RenderPassColorAttachment {
+                            view,
+                            depth_slice: None,
+                            resolve_target: None,
+                            ops: wgpu::Operations {
+                                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                                store: wgpu::StoreOp::Store,
+                            },
+                        })
+                    })
+                    .collect();
+                let depth = layer_view(&self.depth, layer);
+                frame::draw_scene(
+                    encoder,
+                    "rsm layer",
+                    &colors,
+                    &depth,
+                    pipeline,
+                    scene,
+                    (&self.view_bind_group, &[layer * SHADOW_VIEW_STRIDE as u32]),
+                );
+            }
+        })?;
+        Ok(())
+    }
+}

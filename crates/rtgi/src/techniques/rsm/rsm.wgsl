@@ -1,0 +1,71 @@
+// Reading reflective shadow maps (bind group 3) and the RSM pixel-light kernel, shared by the gather
+// (`rsm`, `rsm-interleaved`) and the splatting (`sii`) techniques. Layouts mirror `map.rs`.
+
+#import common/frame.wgsl
+
+// Per texel: world position (xyz) and the cross-section of the light beam through it (w; 0 where the
+// light reaches nothing).
+@group(3) @binding(0) var rsm_position: texture_2d_array<f32>;
+// Normal of the reflector (xyz), facing the light.
+@group(3) @binding(1) var rsm_normal: texture_2d_array<f32>;
+// Reflected radiant intensity along the normal, I_p = Φ_p / π (the paper's Φ_p folds in the 1/π).
+@group(3) @binding(2) var rsm_intensity: texture_2d_array<f32>;
+@group(3) @binding(3) var<storage, read> rsm_views: array<RsmView>;
+// The scene's analytic lights with `shadow_layer` set to their first RSM layer (-1: none).
+@group(3) @binding(4) var<storage, read> rsm_lights: array<Light>;
+
+// One RSM texel as a pixel light.
+struct PixelLight {
+    valid: bool,
+    position: vec3f,
+    area: f32,
+    normal: vec3f,
+    intensity: vec3f,
+}
+
+fn load_pixel_light(texel: vec2i, layer: i32) -> PixelLight {
+    var p: PixelLight;
+    let pos = textureLoad(rsm_position, texel, layer, 0);
+    p.valid = pos.w > 0.0;
+    p.position = pos.xyz;
+    p.area = pos.w;
+    p.normal = textureLoad(rsm_normal, texel, layer, 0).xyz;
+    p.intensity = textureLoad(rsm_intensity, texel, layer, 0).rgb;
+    return p;
+}
+
+// Radiance reflected towards the viewer at surface s from pixel light p (no visibility test: RSM methods
+// ignore indirect occlusion).
+fn pixel_light_radiance(s: GSurface, p: PixelLight) -> vec3f {
+    let e = rsm_irradiance(p.intensity, p.position, p.normal, s.position, s.normal, p.area);
+    if all(e <= vec3f(0.0)) {
+        return vec3f(0.0);
+    }
+    let l = normalize(p.position - s.position);
+    return brdf_eval(s.material, s.normal, s.view, l) * e;
+}
+
+// Where x falls in a light's RSM: the centre of its sampling disc (uv in [0,1]²) and the layer (cube face
+// for point lights). Points outside a spot or directional view are clamped to the map's edge, and points
+// behind the view plane get the map's centre: the paper's projection is only defined inside the frustum,
+// and the light of such points still comes from the whole map.
+struct RsmProjection {
+    uv: vec2f,
+    layer: i32,
+}
+
+fn rsm_project(light: Light, x: vec3f) -> RsmProjection {
+    var r: RsmProjection;
+    r.layer = light.shadow_layer;
+    if light.kind == LIGHT_POINT {
+        r.layer += cube_face(x - light.position);
+    }
+    let clip = rsm_views[r.layer].view_proj * vec4f(x, 1.0);
+    if clip.w <= 0.0 {
+        r.uv = vec2f(0.5);
+        return r;
+    }
+    let ndc = clip.xy / clip.w;
+    r.uv = clamp(vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), vec2f(0.0), vec2f(1.0));
+    return r;
+}

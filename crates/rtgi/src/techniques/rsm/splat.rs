@@ -1,0 +1,311 @@
+//! `sii`: splatting indirect illumination, optionally interleaved (see `vpl.wgsl` and `splat.wgsl`).
+
+use std::collections::BTreeMap;
+
+use bytemuck::{Pod, Zeroable};
+
+use super::interleave::{self, AtlasLayout, Merge, SplitGBuffer};
+use super::map::{self, ReflectiveShadowMap};
+use super::{Composite, Filter, Indirect, packed_buffer};
+use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::{GpuContext, Profiler};
+use crate::render::RenderError;
+use crate::shaders::{self, Defines};
+use crate::techniques::compute;
+use crate::techniques::direct::{DirectLighting, DirectOutput};
+use crate::techniques::{FrameContext, Technique, TechniqueSetup};
+
+/// A VPL; mirrors `Vpl` in `vpl_struct.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuVpl {
+    pub position: [f32; 3],
+    pub radius: f32,
+    pub normal: [f32; 3],
+    pub area: f32,
+    pub intensity: [f32; 3],
+    pub subset: u32,
+}
+
+/// Mirrors `VplParams` in `vpl.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct VplParams {
+    pub count: u32,
+    pub subsets: u32,
+    pub jitter: f32,
+    pub threshold: f32,
+}
+
+pub const VPL_STRUCT_WGSL: &str = include_str!("vpl_struct.wgsl");
+
+/// The source of the VPL-selection shader.
+pub fn vpl_source() -> String {
+    map::reader_source(&format!("{VPL_STRUCT_WGSL}\n{}", include_str!("vpl.wgsl")))
+}
+
+/// The source of the splat shader.
+pub fn splat_source() -> String {
+    map::reader_source(&format!(
+        "{}\n{}\n{VPL_STRUCT_WGSL}\n{}",
+        interleave::ATLAS_WGSL,
+        interleave::SURFACES_WGSL,
+        include_str!("splat.wgsl")
+    ))
+}
+
+pub struct Splat {
+    direct: DirectLighting,
+    rsm: ReflectiveShadowMap,
+    layout: AtlasLayout,
+    split: SplitGBuffer,
+    cdf_pipeline: wgpu::ComputePipeline,
+    vpl_pipeline: wgpu::ComputePipeline,
+    vpl_group: wgpu::BindGroup,
+    params: VplParams,
+    params_buffer: wgpu::Buffer,
+    pub(super) vpl_buffer: wgpu::Buffer,
+    splat_pipeline: wgpu::RenderPipeline,
+    splat_group: wgpu::BindGroup,
+    pub(super) atlas: wgpu::Texture,
+    atlas_view: wgpu::TextureView,
+    merge: Option<Merge>,
+    filter: Option<Filter>,
+    composite: Composite,
+    cdf_built: bool,
+    atlas_format: wgpu::TextureFormat,
+}
+
+impl Splat {
+    pub fn new(setup: &TechniqueSetup, pattern: (u32, u32)) -> Result<Self, RenderError> {
+        let ctx = setup.ctx;
+        let p = setup.params;
+        let (w, h) = (setup.frame.width, setup.frame.height);
+        let direct_target = compute::storage_texture(ctx, "direct", w, h, OUTPUT_FORMAT);
+        let direct = DirectLighting::new(setup, &direct_target, DirectOutput::Replace)?;
+        let rsm = ReflectiveShadowMap::new(ctx, setup.scene, setup.gpu_scene, p.int("rsm_size") as u32)?;
+        let layout = AtlasLayout::interleaved(w, h, pattern.0, pattern.1);
+        let count = p.int("vpls") as u32;
+        let params = VplParams {
+            count,
+            subsets: layout.subsets(),
+            jitter: 0.5,
+            threshold: p.float("splat_threshold") as f32,
+        };
+        let rescale = p.bool("rescale");
+        let scale = if rescale { layout.subsets() as f32 } else { 1.0 };
+
+        // VPL selection.
+        let cdf = compute::storage_buffer(ctx, "rsm luminance cdf", u64::from(rsm.texels().max(1)) * 4);
+        let vpl_buffer = compute::storage_buffer(ctx, "vpls", u64::from(count) * size_of::<GpuVpl>() as u64);
+        let params_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("vpl params"),
+            size: size_of::<VplParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let vpl_layout = compute::layout(
+            ctx,
+            "vpl selection",
+            &[compute::storage_buffer_entry(0, false), compute::storage_buffer_entry(1, false), compute::uniform_entry(2)],
+        );
+        let vpl_group = compute::bind_group(
+            ctx,
+            "vpl selection",
+            &vpl_layout,
+            &[cdf.as_entire_binding(), vpl_buffer.as_entire_binding(), params_buffer.as_entire_binding()],
+        );
+        let layouts = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &vpl_layout, &rsm.layout];
+        let source = vpl_source();
+        let cdf_pipeline = compute::pipeline(ctx, "rsm cdf", &source, Defines::new(), "build_cdf", &layouts)?;
+        let vpl_pipeline = compute::pipeline(ctx, "vpls", &source, Defines::new(), "make_vpls", &layouts)?;
+
+        // Splatting.
+        let split = SplitGBuffer::new(ctx, setup.frame, layout, &setup.gpu_scene.bind_group_layout)?;
+        let atlas_format = if ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
+            wgpu::TextureFormat::Rgba32Float
+        } else {
+            wgpu::TextureFormat::Rgba16Float
+        };
+        let (aw, ah) = layout.size();
+        let atlas = ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("sii indirect atlas"),
+            size: wgpu::Extent3d { width: aw, height: ah, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: atlas_format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let atlas_view = atlas.create_view(&Default::default());
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ..compute::storage_buffer_entry(0, true)
+        }];
+        entries.extend(interleave::surface_entries(wgpu::ShaderStages::FRAGMENT));
+        let splat_layout = compute::layout(ctx, "splat", &entries);
+        let mut resources = vec![wgpu::BindGroupEntry { binding: 0, resource: vpl_buffer.as_entire_binding() }];
+        for (i, r) in split.resources().into_iter().enumerate() {
+            resources.push(wgpu::BindGroupEntry { binding: 8 + i as u32, resource: r });
+        }
+        let splat_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("splat"),
+            layout: &splat_layout,
+            entries: &resources,
+        });
+        let defines = layout
+            .defines(Defines::new())
+            .bool("SPLIT_GBUFFER", layout.is_interleaved())
+            .f32("SCALE", scale);
+        let module = shaders::create_module(&ctx.device, "splat", &splat_source(), &defines)?;
+        let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("splat"),
+            bind_group_layouts: &[
+                Some(&setup.gpu_scene.bind_group_layout),
+                Some(&setup.frame.bind_group_layout),
+                Some(&splat_layout),
+                Some(&rsm.layout),
+            ],
+            immediate_size: 0,
+        });
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let splat_pipeline = ctx.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("splat"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: atlas_format,
+                    blend: Some(wgpu::BlendState { color: add, alpha: add }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let mut merge = None;
+        let mut filter = None;
+        let composite = if layout.is_interleaved() {
+            let merged = packed_buffer(setup, "sii indirect merged");
+            merge = Some(Merge::new(ctx, setup.frame, &setup.gpu_scene.bind_group_layout, layout, &atlas, &merged)?);
+            let f = Filter::new(setup, pattern, &merged)?;
+            let c = Composite::new(setup, &direct_target, Indirect::Packed(f.output()))?;
+            filter = Some(f);
+            c
+        } else {
+            Composite::new(setup, &direct_target, Indirect::Texture(&atlas))?
+        };
+        Ok(Splat {
+            direct,
+            rsm,
+            layout,
+            split,
+            cdf_pipeline,
+            vpl_pipeline,
+            vpl_group,
+            params,
+            params_buffer,
+            vpl_buffer,
+            splat_pipeline,
+            splat_group,
+            atlas,
+            atlas_view,
+            merge,
+            filter,
+            composite,
+            cdf_built: false,
+            atlas_format,
+        })
+    }
+}
+
+impl Technique for Splat {
+    fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let ctx = fc.ctx;
+        // A different stratification offset every frame (frame 0: the slice centres).
+        self.params.jitter = if fc.frame_index == 0 {
+            0.5
+        } else {
+            let h = (fc.frame_index ^ fc.frame.uniforms.seed.rotate_left(16)).wrapping_mul(0x9e37_79b9);
+            (h >> 8) as f32 / (1u32 << 24) as f32
+        };
+        ctx.queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+        self.rsm.render(ctx, fc.gpu_scene, profiler)?;
+        self.direct.render(fc, profiler)?;
+        let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
+        let groups = [scene, frame, &self.vpl_group, &self.rsm.bind_group];
+        if !self.cdf_built {
+            self.cdf_built = true;
+            profiler.pass(ctx, "rsm flux cdf", |e| compute::dispatch(e, "rsm cdf", &self.cdf_pipeline, &groups, [1, 1, 1]))?;
+        }
+        profiler.pass(ctx, "vpl selection", |e| {
+            compute::dispatch(e, "vpls", &self.vpl_pipeline, &groups, [self.params.count.div_ceil(64), 1, 1])
+        })?;
+        if self.layout.is_interleaved() {
+            profiler.pass(ctx, "split", |e| self.split.record(e, scene, frame))?;
+        }
+        profiler.pass(ctx, "splat", |e| {
+            let mut pass = e.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("splat"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &self.atlas_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.splat_pipeline);
+            pass.set_bind_group(0, scene, &[]);
+            pass.set_bind_group(1, frame, &[]);
+            pass.set_bind_group(2, &self.splat_group, &[]);
+            pass.set_bind_group(3, &self.rsm.bind_group, &[]);
+            pass.draw(0..6, 0..self.params.count);
+        })?;
+        if let Some(merge) = &self.merge {
+            profiler.pass(ctx, "merge", |e| merge.record(e, scene, fc.frame))?;
+        }
+        if let Some(filter) = &self.filter {
+            filter.render(fc, profiler)?;
+        }
+        self.composite.render(fc, profiler)
+    }
+
+    fn counters(&mut self, _ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
+        let mut c = BTreeMap::new();
+        c.insert("rsm_texels".into(), f64::from(self.rsm.texels()));
+        c.insert("rsm_layers".into(), self.rsm.views.len() as f64);
+        c.insert("rsm_bytes".into(), f64::from(self.rsm.texels() * map::BYTES_PER_TEXEL));
+        c.insert("vpls".into(), f64::from(self.params.count));
+        c.insert("vpls_per_subbuffer".into(), f64::from(self.params.count) / f64::from(self.layout.subsets()));
+        c.insert("sample_subsets".into(), f64::from(self.layout.subsets()));
+        c.insert("atlas_bytes_per_texel".into(), f64::from(self.atlas_format.block_copy_size(None).unwrap_or(0)));
+        Ok(c)
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.rsm.warnings.clone()
+    }
+}

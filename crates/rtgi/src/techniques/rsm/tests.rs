@@ -1,0 +1,314 @@
+//! Shader validation, the interleaving layout, the sample pattern and the RSM kernel.
+
+use super::interleave::{self, AtlasLayout};
+use super::*;
+use crate::shaders::{Defines, layout::assert_layout, validate};
+
+fn atlas_defines(l: &AtlasLayout) -> Defines {
+    l.defines(Defines::new().u32("TILE", 8))
+}
+
+#[test]
+fn shaders_validate() {
+    let l = AtlasLayout::interleaved(64, 48, 4, 2);
+    let view = format!("{}\n{}", map::VIEW_WGSL, include_str!("map.wgsl"));
+    validate("rsm map", &view, &Defines::new());
+    for (brute, fixup) in [(false, false), (true, false), (false, true)] {
+        let src = reader_source(&format!(
+            "{}\n{}\n{}",
+            interleave::ATLAS_WGSL,
+            interleave::SURFACES_WGSL,
+            include_str!("gather.wgsl")
+        ));
+        validate(
+            "rsm gather",
+            &src,
+            &atlas_defines(&l)
+                .u32("SAMPLES_PER_SUBSET", 16)
+                .bool("BRUTE_FORCE", brute)
+                .bool("FIXUP", fixup)
+                .bool("SPLIT_GBUFFER", true),
+        );
+    }
+    validate("upsample", include_str!("upsample.wgsl"), &Defines::new().u32("TILE", 8).u32("DOWNSAMPLE", 2));
+    validate("composite", include_str!("composite.wgsl"), &Defines::new().u32("TILE", 8));
+    let atlas = |body: &str| format!("{}\n{body}", interleave::ATLAS_WGSL);
+    validate("split", &atlas(include_str!("split.wgsl")), &atlas_defines(&l));
+    validate("merge", &atlas(include_str!("merge.wgsl")), &atlas_defines(&l));
+    validate(
+        "merge gbuffer",
+        &atlas(&format!("{}\n{}", interleave::SURFACES_WGSL, include_str!("merge_gbuffer.wgsl"))),
+        &atlas_defines(&l).bool("SPLIT_GBUFFER", true),
+    );
+    let vpl = validate("vpl", &splat::vpl_source(), &Defines::new().u32("TILE", 8));
+    assert_layout(
+        &vpl,
+        "Vpl",
+        size_of::<splat::GpuVpl>(),
+        &[("position", 0), ("radius", 12), ("normal", 16), ("area", 28), ("intensity", 32), ("subset", 44)],
+    );
+    assert_layout(
+        &vpl,
+        "VplParams",
+        size_of::<splat::VplParams>(),
+        &[("count", 0), ("subsets", 4), ("jitter", 8), ("threshold", 12)],
+    );
+    assert_layout(
+        &vpl,
+        "RsmView",
+        size_of::<RsmView>(),
+        &[("view_proj", 0), ("light", 64), ("orthographic", 68), ("texel", 72), ("size", 76)],
+    );
+    validate("splat", &splat::splat_source(), &atlas_defines(&l).bool("SPLIT_GBUFFER", true).f32("SCALE", 8.0));
+}
+
+#[test]
+fn atlas_layout_is_a_bijection() {
+    for (w, h) in [(64, 48), (61, 37)] {
+        for (n, m) in [(1, 1), (2, 2), (2, 4), (4, 4), (8, 8), (3, 5)] {
+            let l = AtlasLayout::interleaved(w, h, n, m);
+            let (aw, ah) = l.size();
+            let mut seen = vec![0u32; (w * h) as usize];
+            let mut per_subset = vec![0u32; (n * m) as usize];
+            for ay in 0..ah {
+                for ax in 0..aw {
+                    if let Some(p) = l.source((ax, ay), w, h) {
+                        seen[(p.1 * w + p.0) as usize] += 1;
+                        assert_eq!(l.of_pixel(p), (ax, ay));
+                        let s = l.subset((ax, ay));
+                        assert_eq!(s, p.0 % n + n * (p.1 % m), "sub-buffer of pixel {p:?}");
+                        per_subset[s as usize] += 1;
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&c| c == 1), "{w}x{h} {n}x{m}: every pixel exactly once");
+            // Each sub-buffer is a decimated copy: ceil/floor of W/N × H/M pixels.
+            for (s, &c) in per_subset.iter().enumerate() {
+                let (i, j) = (s as u32 % n, s as u32 / n);
+                let cols = (w - i).div_ceil(n);
+                let rows = (h - j).div_ceil(m);
+                assert_eq!(c, cols * rows, "{w}x{h} {n}x{m}: sub-buffer {s}");
+            }
+        }
+    }
+}
+
+#[test]
+fn sample_pattern_is_the_polar_disc_and_subsets_are_disjoint_nets() {
+    let s = Sampling { count: 1024, per_subset: 64, r_max: 0.3, xi2: false, rsm_size: 128 };
+    let samples = gather_samples(&s, 7, 3);
+    let texels = std::f64::consts::PI * 0.09 * 128.0 * 128.0;
+    for block in samples.chunks(64) {
+        // Every sample inside r_max; the radius is r_max·ξ1.
+        for p in block {
+            let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
+            assert!(r <= 0.3 + 1e-6 && (r - 0.3 * p[3]).abs() < 1e-5, "{p:?}");
+        }
+        // A (0,6,2)-net: each of the 64 ξ1 strata holds exactly one sample...
+        let mut strata = [0u32; 64];
+        for p in block {
+            strata[(p[3] * 64.0) as usize] += 1;
+        }
+        assert!(strata.iter().all(|&c| c == 1), "{strata:?}");
+        // ...and the weights estimate the texel count of the disc (∫ 2ξ dξ = 1) to within the stratification.
+        let sum: f64 = block.iter().map(|p| f64::from(p[2])).sum();
+        assert!((sum / texels - 1.0).abs() < 0.02, "{}", sum / texels);
+    }
+}
+
+/// A GPU context, a built-in scene with its G-buffer rendered, for the GPU tests below.
+struct Fixture {
+    ctx: crate::gpu::GpuContext,
+    scene: crate::scene::Scene,
+    gpu_scene: crate::gpu::GpuScene,
+    frame: crate::frame::FrameResources,
+    output: wgpu::Texture,
+}
+
+fn fixture(scene: &str, w: u32, h: u32) -> Fixture {
+    use crate::frame::{FrameResources, ShadowSettings};
+    use crate::gpu::{GpuContext, GpuOptions, GpuScene, Profiler};
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let scene = crate::scene::builtin::build(scene, &[]).expect("scene");
+    let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
+    let shadows = ShadowSettings { size: 256, filter_radius: 1, depth_bias: 1e-4, normal_offset: 1.5 };
+    let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, Some(shadows)).expect("frame");
+    frame.begin_frame(&ctx, 0, 0);
+    frame.render_inputs(&ctx, &gpu_scene, &mut Profiler::new(&ctx)).expect("gbuffer");
+    let output = compute::storage_texture(&ctx, "output", w, h, OUTPUT_FORMAT);
+    Fixture { ctx, scene, gpu_scene, frame, output }
+}
+
+#[test]
+fn split_then_merge_reproduces_the_gbuffer_exactly() {
+    use crate::frame::{ALBEDO_FORMAT, DISTANCE_FORMAT, MATERIAL_FORMAT, NORMAL_FORMAT};
+    use crate::gpu::readback::read_texture;
+    let f = fixture("cornell-spot", 61, 37);
+    let ctx = &f.ctx;
+    let formats = [(ALBEDO_FORMAT, 8), (NORMAL_FORMAT, 8), (MATERIAL_FORMAT, 8), (DISTANCE_FORMAT, 4)];
+    let g = &f.frame.gbuffer;
+    let originals: Vec<Vec<u8>> = [&g.albedo, &g.normal, &g.material, &g.distance]
+        .iter()
+        .zip(formats)
+        .map(|(t, (_, bpp))| read_texture(ctx, t, bpp).expect("readback"))
+        .collect();
+    // The G-buffer is not trivial: some pixels see the scene.
+    assert!(originals[3].chunks(4).any(|d| f32::from_le_bytes([d[0], d[1], d[2], d[3]]) > 0.0));
+    for (n, m) in [(2, 2), (2, 4), (4, 4), (8, 8), (3, 5)] {
+        let l = AtlasLayout::interleaved(61, 37, n, m);
+        let split = interleave::SplitGBuffer::new(ctx, &f.frame, l, &f.gpu_scene.bind_group_layout).expect("split");
+        let outputs: Vec<wgpu::Texture> =
+            formats.iter().map(|(fmt, _)| compute::storage_texture(ctx, "merged", 61, 37, *fmt)).collect();
+        let mut entries: Vec<wgpu::BindGroupLayoutEntry> = formats
+            .iter()
+            .enumerate()
+            .map(|(i, (fmt, _))| storage_texture_entry(i as u32, *fmt, wgpu::StorageTextureAccess::WriteOnly))
+            .collect();
+        entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
+        let bgl = compute::layout(ctx, "merge gbuffer", &entries);
+        let views: Vec<wgpu::TextureView> = outputs.iter().map(|t| t.create_view(&Default::default())).collect();
+        let mut resources: Vec<wgpu::BindGroupEntry> = views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| wgpu::BindGroupEntry { binding: i as u32, resource: wgpu::BindingResource::TextureView(v) })
+            .collect();
+        for (i, r) in split.resources().into_iter().enumerate() {
+            resources.push(wgpu::BindGroupEntry { binding: 8 + i as u32, resource: r });
+        }
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("merge gbuffer"),
+            layout: &bgl,
+            entries: &resources,
+        });
+        let source = format!(
+            "{}\n{}\n{}",
+            interleave::ATLAS_WGSL,
+            interleave::SURFACES_WGSL,
+            include_str!("merge_gbuffer.wgsl")
+        );
+        let pipeline = compute::pipeline(
+            ctx,
+            "merge gbuffer",
+            &source,
+            l.defines(Defines::new()).bool("SPLIT_GBUFFER", true),
+            "merge_gbuffer",
+            &[&f.gpu_scene.bind_group_layout, &f.frame.bind_group_layout, &bgl],
+        )
+        .expect("pipeline");
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        split.record(&mut encoder, &f.gpu_scene.bind_group, &f.frame.bind_group);
+        compute::dispatch_pixels(
+            &mut encoder,
+            "merge gbuffer",
+            &pipeline,
+            &[&f.gpu_scene.bind_group, &f.frame.bind_group, &group],
+            61,
+            37,
+        );
+        ctx.queue.submit([encoder.finish()]);
+        for ((t, (_, bpp)), original) in outputs.iter().zip(formats).zip(&originals) {
+            let merged = read_texture(ctx, t, bpp).expect("readback");
+            assert!(merged == *original, "{n}x{m}: {:?} differs after split + merge", t.format());
+        }
+    }
+}
+
+#[test]
+fn rsm_kernel_is_phi_over_d_squared_head_on() {
+    use crate::gpu::readback::read_buffer;
+    use wgpu::util::DeviceExt;
+    let ctx = crate::gpu::GpuContext::new(&crate::gpu::GpuOptions::default()).expect("GPU adapter");
+    let phi = 2.0f32;
+    // (x_p, n_p, x, n, expected E): head-on at several distances, oblique, facing away, behind.
+    let (s, c) = (0.6f32, 0.8f32);
+    let cases: Vec<([f32; 3], [f32; 3], [f32; 3], [f32; 3], f32)> = vec![
+        ([0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 0.5], [0.0, 0.0, -1.0], phi / 0.25),
+        ([0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], phi),
+        ([1.0, 2.0, 3.0], [0.0, 1.0, 0.0], [1.0, 5.0, 3.0], [0.0, -1.0, 0.0], phi / 9.0),
+        // Oblique sender (cos 0.8), receiver facing it: Φ·cos/d².
+        ([0.0; 3], [0.0, 0.0, 1.0], [2.0 * s, 0.0, 2.0 * c], [-s, 0.0, -c], phi * c / 4.0),
+        // Receiver facing away, or behind the sender: nothing.
+        ([0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], 0.0),
+        ([0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0], 0.0),
+    ];
+    let data: Vec<[f32; 16]> = cases
+        .iter()
+        .map(|(xp, np, x, n, _)| {
+            [xp[0], xp[1], xp[2], phi, np[0], np[1], np[2], 0.0, x[0], x[1], x[2], 0.0, n[0], n[1], n[2], 0.0]
+        })
+        .collect();
+    let input = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("cases"),
+        contents: bytemuck::cast_slice(&data),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let output = compute::storage_buffer(&ctx, "results", cases.len() as u64 * 4);
+    let bgl = compute::layout(&ctx, "kernel", &[compute::storage_buffer_entry(0, true), compute::storage_buffer_entry(1, false)]);
+    let group = compute::bind_group(&ctx, "kernel", &bgl, &[input.as_entire_binding(), output.as_entire_binding()]);
+    let source = format!(
+        "{}\n{}",
+        map::KERNEL_WGSL,
+        r"
+struct Case { xp: vec4f, np: vec4f, x: vec4f, n: vec4f }
+@group(0) @binding(0) var<storage, read> cases: array<Case>;
+@group(0) @binding(1) var<storage, read_write> results: array<f32>;
+@compute @workgroup_size(1)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let c = cases[id.x];
+    results[id.x] = rsm_irradiance(vec3f(c.xp.w), c.xp.xyz, c.np.xyz, c.x.xyz, c.n.xyz, 1e-8).x;
+}
+"
+    );
+    let pipeline = compute::pipeline(&ctx, "kernel", &source, Defines::new(), "main", &[&bgl]).expect("pipeline");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    compute::dispatch(&mut encoder, "kernel", &pipeline, &[&group], [cases.len() as u32, 1, 1]);
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = read_buffer(&ctx, &output, 0, cases.len() as u64 * 4).expect("readback");
+    let got: &[f32] = bytemuck::cast_slice(&bytes);
+    for (g, case) in got.iter().zip(&cases) {
+        assert!((g - case.4).abs() <= 1e-5 * case.4.max(1.0), "E = {g}, expected {} for {case:?}", case.4);
+    }
+}
+
+#[test]
+fn every_vpl_reaches_exactly_one_sub_buffer() {
+    use crate::gpu::Profiler;
+    use crate::gpu::readback::{read_buffer, read_texture};
+    let f = fixture("cornell-spot", 64, 48);
+    let (n, m, count) = (4u32, 2u32, 64u32);
+    let settings: Vec<(String, String)> = [("interleave", "4x2"), ("vpls", "64"), ("rescale", "false")]
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    let (_, params) = crate::techniques::resolve("sii", &settings).expect("params");
+    let setup = TechniqueSetup {
+        ctx: &f.ctx,
+        scene: &f.scene,
+        gpu_scene: &f.gpu_scene,
+        frame: &f.frame,
+        params: &params,
+        output: &f.output,
+    };
+    let mut sii = splat::Splat::new(&setup, (n, m)).expect("sii");
+    let fc = FrameContext { ctx: &f.ctx, gpu_scene: &f.gpu_scene, frame: &f.frame, frame_index: 0 };
+    crate::techniques::Technique::render_frame(&mut sii, &fc, &mut Profiler::new(&f.ctx)).expect("frame");
+    // Each VPL belongs to one sub-buffer, k mod N·M, so every sub-buffer gets count/(N·M).
+    let bytes = read_buffer(&f.ctx, &sii.vpl_buffer, 0, u64::from(count) * 48).expect("vpls");
+    let vpls: &[splat::GpuVpl] = bytemuck::cast_slice(&bytes);
+    for (k, v) in vpls.iter().enumerate() {
+        assert_eq!(v.subset, k as u32 % (n * m));
+        assert!(v.intensity.iter().any(|&c| c > 0.0) && v.radius > 0.0, "VPL {k} is empty: {v:?}");
+    }
+    // Alpha counts splats per atlas texel: 1 per VPL of the texel's own sub-buffer, 65536 per foreign one.
+    let atlas = read_texture(&f.ctx, &sii.atlas, 16).expect("atlas");
+    let texels: &[f32] = bytemuck::cast_slice(&atlas);
+    let l = AtlasLayout::interleaved(64, 48, n, m);
+    let (aw, _) = l.size();
+    let mut reached = vec![0.0f64; (n * m) as usize];
+    for (i, t) in texels.chunks_exact(4).enumerate() {
+        assert!(t[3] < 65536.0, "texel {i} received a VPL of another sub-buffer (alpha {})", t[3]);
+        reached[l.subset((i as u32 % aw, i as u32 / aw)) as usize] += f64::from(t[3]);
+    }
+    // Every sub-buffer received splats: the cornell box fills the view and the VPLs reach the whole box.
+    assert!(reached.iter().all(|&r| r > 0.0), "{reached:?}");
+}
