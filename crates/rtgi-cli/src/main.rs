@@ -66,6 +66,9 @@ enum Command {
         /// Also write the FLIP error map as a PNG (magma colours).
         #[arg(long, value_name = "FILE.png")]
         error_map: Option<PathBuf>,
+        /// Also report the mean radiance of both images in this pixel rectangle (e.g. a dark room).
+        #[arg(long, value_name = "X,Y,W,H")]
+        region: Option<String>,
     },
     /// Write a built-in scene as binary glTF (.glb).
     ExportScene {
@@ -121,7 +124,26 @@ fn reference(scene: &str, size: &str, spp: u32, set: &[String], out: Option<&Pat
     Ok(())
 }
 
-fn compare(reference: &Path, test: &Path, json: bool, error_map: Option<&Path>) -> anyhow::Result<()> {
+fn parse_region(text: &str) -> anyhow::Result<[u32; 4]> {
+    let v: Vec<u32> = text
+        .split(',')
+        .map(|p| p.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--region '{text}': expected four whole numbers X,Y,W,H"))?;
+    match v.as_slice() {
+        [x, y, w, h] => Ok([*x, *y, *w, *h]),
+        _ => bail!("--region '{text}': expected four numbers X,Y,W,H, got {}", v.len()),
+    }
+}
+
+fn compare(
+    reference: &Path,
+    test: &Path,
+    json: bool,
+    error_map: Option<&Path>,
+    region: Option<&str>,
+) -> anyhow::Result<()> {
+    let region = region.map(parse_region).transpose()?;
     if let Some(path) = error_map {
         rtgi::image::FileFormat::for_writing(path).context("--error-map")?;
         if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
@@ -138,10 +160,38 @@ fn compare(reference: &Path, test: &Path, json: bool, error_map: Option<&Path>) 
         create_parent(path)?;
         rtgi::image::write_rgb8_png(path, r.width, r.height, &rgb)?;
     }
+    let means = match region {
+        Some([x, y, w, h]) => Some((
+            rtgi::metrics::region_mean(&r, x, y, w, h).context("--region")?,
+            rtgi::metrics::region_mean(&t, x, y, w, h).context("--region")?,
+        )),
+        None => None,
+    };
+    let lum = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
     if json {
-        println!("{}", serde_json::to_string(&m)?);
+        let mut v = serde_json::to_value(m)?;
+        if let (Some((rm, tm)), Some(obj)) = (means, v.as_object_mut()) {
+            obj.insert(
+                "region".into(),
+                serde_json::json!({
+                    "reference_mean": rm,
+                    "test_mean": tm,
+                    "reference_luminance": lum(rm),
+                    "test_luminance": lum(tm),
+                }),
+            );
+        }
+        println!("{v}");
     } else {
         println!("rmse {:.6}  rel_mse {:.6}  flip {:.6}", m.rmse, m.rel_mse, m.flip);
+        if let Some((rm, tm)) = means {
+            println!(
+                "region mean luminance: reference {:.6}, test {:.6} (ratio {:.3})",
+                lum(rm),
+                lum(tm),
+                lum(tm) / lum(rm)
+            );
+        }
     }
     Ok(())
 }
@@ -163,8 +213,8 @@ fn main() -> ExitCode {
         Command::Reference { scene, size, spp, set, out } => {
             reference(&scene, &size, spp, &set, out.as_deref())
         }
-        Command::Compare { reference, test, json, error_map } => {
-            compare(&reference, &test, json, error_map.as_deref())
+        Command::Compare { reference, test, json, error_map, region } => {
+            compare(&reference, &test, json, error_map.as_deref(), region.as_deref())
         }
     };
     match result {

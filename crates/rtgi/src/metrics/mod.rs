@@ -18,6 +18,8 @@ pub enum MetricsError {
     SizeMismatch { rw: u32, rh: u32, tw: u32, th: u32 },
     #[error("images are empty")]
     Empty,
+    #[error("region {w}x{h} at ({x}, {y}) is empty or leaves the {width}x{height} image")]
+    Region { x: u32, y: u32, w: u32, h: u32, width: u32, height: u32 },
 }
 
 /// The three error figures of a comparison.
@@ -41,6 +43,24 @@ fn check(reference: &HdrImage, test: &HdrImage) -> Result<(), MetricsError> {
         return Err(MetricsError::Empty);
     }
     Ok(())
+}
+
+/// Mean linear radiance (RGB) of the pixels in the rectangle at (x, y) of size w×h.
+pub fn region_mean(image: &HdrImage, x: u32, y: u32, w: u32, h: u32) -> Result<[f64; 3], MetricsError> {
+    if w == 0 || h == 0 || x.saturating_add(w) > image.width || y.saturating_add(h) > image.height {
+        return Err(MetricsError::Region { x, y, w, h, width: image.width, height: image.height });
+    }
+    let mut sum = [0.0f64; 3];
+    for py in y..y + h {
+        for px in x..x + w {
+            let i = 3 * (py * image.width + px) as usize;
+            for (c, s) in sum.iter_mut().enumerate() {
+                *s += f64::from(image.rgb[i + c]);
+            }
+        }
+    }
+    let n = f64::from(w) * f64::from(h);
+    Ok(sum.map(|s| s / n))
 }
 
 /// Root-mean-square error over all channels and pixels.

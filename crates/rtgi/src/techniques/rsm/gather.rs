@@ -115,7 +115,8 @@ fn gather_pass(
     let mut groups = Vec::new();
     let mut first = 0;
     while first < total.max(1) {
-        let chunk = Chunk { first, count: step.min(total - first), accumulate: u32::from(first > 0), _pad: 0 };
+        let chunk =
+            Chunk { first, count: step.min(total - first), accumulate: u32::from(first > 0), _pad: 0 };
         let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rsm gather chunk"),
             contents: bytemuck::bytes_of(&chunk),
@@ -171,11 +172,22 @@ impl Gather {
         }
         let per_subset = requested / subsets;
         let sampling = Sampling::from_params(p, per_subset * subsets, per_subset, rsm.size);
-        let samples_buffer = compute::storage_buffer(ctx, "rsm samples", u64::from(per_subset * subsets) * 16);
+        let samples_buffer =
+            compute::storage_buffer(ctx, "rsm samples", u64::from(per_subset * subsets) * 16);
         let split = SplitGBuffer::new(ctx, setup.frame, layout, &setup.gpu_scene.bind_group_layout)?;
         let (aw, ah) = layout.size();
         let atlas = compute::storage_texture(ctx, "rsm indirect atlas", aw, ah, OUTPUT_FORMAT);
-        let gather = gather_pass(setup, &rsm, layout, &split, &atlas, &samples_buffer, per_subset, brute_force, false)?;
+        let gather = gather_pass(
+            setup,
+            &rsm,
+            layout,
+            &split,
+            &atlas,
+            &samples_buffer,
+            per_subset,
+            brute_force,
+            false,
+        )?;
         let mut indirect = atlas;
         let mut upsample = None;
         if downsample > 1 {
@@ -204,7 +216,8 @@ impl Gather {
                 &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &bgl],
             )?;
             let full_layout = AtlasLayout::reduced(w, h, 1);
-            let full_surfaces = SplitGBuffer::new(ctx, setup.frame, full_layout, &setup.gpu_scene.bind_group_layout)?;
+            let full_surfaces =
+                SplitGBuffer::new(ctx, setup.frame, full_layout, &setup.gpu_scene.bind_group_layout)?;
             let fixup = gather_pass(
                 setup,
                 &rsm,
@@ -223,7 +236,14 @@ impl Gather {
         let mut filter = None;
         let composite = if layout.is_interleaved() {
             let merged = packed_buffer(setup, "rsm indirect merged");
-            merge = Some(Merge::new(ctx, setup.frame, &setup.gpu_scene.bind_group_layout, layout, &indirect, &merged)?);
+            merge = Some(Merge::new(
+                ctx,
+                setup.frame,
+                &setup.gpu_scene.bind_group_layout,
+                layout,
+                &indirect,
+                &merged,
+            )?);
             let f = Filter::new(setup, interleave, &merged)?;
             let c = Composite::new(setup, &direct_target, Indirect::Packed(f.output()))?;
             filter = Some(f);
@@ -263,7 +283,14 @@ impl Technique for Gather {
         profiler.pass(ctx, "rsm gather", |e| self.gather.record(e, fc, &self.rsm))?;
         if let Some((pipeline, group, fixup, _)) = &self.upsample {
             profiler.pass(ctx, "upsample", |e| {
-                compute::dispatch_pixels(e, "rsm upsample", pipeline, &[scene, frame, group], fc.frame.width, fc.frame.height)
+                compute::dispatch_pixels(
+                    e,
+                    "rsm upsample",
+                    pipeline,
+                    &[scene, frame, group],
+                    fc.frame.width,
+                    fc.frame.height,
+                )
             })?;
             profiler.pass(ctx, "full-resolution fixup", |e| fixup.record(e, fc, &self.rsm))?;
         }

@@ -97,7 +97,12 @@ pub struct SplitGBuffer {
 }
 
 impl SplitGBuffer {
-    pub fn new(ctx: &GpuContext, frame: &FrameResources, layout: AtlasLayout, gpu_scene_layout: &wgpu::BindGroupLayout) -> Result<Self, RenderError> {
+    pub fn new(
+        ctx: &GpuContext,
+        frame: &FrameResources,
+        layout: AtlasLayout,
+        gpu_scene_layout: &wgpu::BindGroupLayout,
+    ) -> Result<Self, RenderError> {
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
         if !layout.is_interleaved() {
             let g = &frame.gbuffer;
@@ -111,7 +116,8 @@ impl SplitGBuffer {
             });
         }
         let (w, h) = layout.size();
-        let formats = [frame::ALBEDO_FORMAT, frame::NORMAL_FORMAT, frame::MATERIAL_FORMAT, frame::DISTANCE_FORMAT];
+        let formats =
+            [frame::ALBEDO_FORMAT, frame::NORMAL_FORMAT, frame::MATERIAL_FORMAT, frame::DISTANCE_FORMAT];
         let textures: Vec<wgpu::Texture> =
             formats.iter().map(|f| compute::storage_texture(ctx, "split gbuffer", w, h, *f)).collect();
         let entries: Vec<wgpu::BindGroupLayoutEntry> = formats
@@ -121,7 +127,8 @@ impl SplitGBuffer {
             .collect();
         let bgl = compute::layout(ctx, "split gbuffer", &entries);
         let views: Vec<wgpu::TextureView> = textures.iter().map(view).collect();
-        let resources: Vec<wgpu::BindingResource> = views.iter().map(wgpu::BindingResource::TextureView).collect();
+        let resources: Vec<wgpu::BindingResource> =
+            views.iter().map(wgpu::BindingResource::TextureView).collect();
         let bind_group = compute::bind_group(ctx, "split gbuffer", &bgl, &resources);
         let source = format!("{ATLAS_WGSL}\n{}", include_str!("split.wgsl"));
         let pipeline = compute::pipeline(
@@ -148,7 +155,12 @@ impl SplitGBuffer {
     }
 
     /// Records the split (nothing without interleaving).
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, scene: &wgpu::BindGroup, frame: &wgpu::BindGroup) {
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &wgpu::BindGroup,
+        frame: &wgpu::BindGroup,
+    ) {
         if let Some((pipeline, group)) = &self.split {
             let (w, h) = self.layout.size();
             compute::dispatch_pixels(encoder, "split gbuffer", pipeline, &[scene, frame, group], w, h);
@@ -198,7 +210,12 @@ impl Merge {
         Ok(Merge { pipeline, bind_group })
     }
 
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, scene: &wgpu::BindGroup, frame: &FrameResources) {
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &wgpu::BindGroup,
+        frame: &FrameResources,
+    ) {
         compute::dispatch_pixels(
             encoder,
             "merge",

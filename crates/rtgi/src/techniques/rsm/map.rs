@@ -46,8 +46,6 @@ pub fn reader_source(body: &str) -> String {
 /// The reflective shadow maps of a scene's analytic lights.
 pub struct ReflectiveShadowMap {
     pub size: u32,
-    #[allow(dead_code)]
-    pub layers: u32,
     /// Scene lights with `shadow_layer` set to their first RSM layer (-1 for none).
     pub lights: Vec<GpuLight>,
     pub views: Vec<RsmView>,
@@ -65,7 +63,13 @@ pub struct ReflectiveShadowMap {
     rendered: bool,
 }
 
-fn array_texture(ctx: &GpuContext, label: &str, size: u32, layers: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
+fn array_texture(
+    ctx: &GpuContext,
+    label: &str,
+    size: u32,
+    layers: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
     ctx.device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
@@ -112,7 +116,12 @@ fn read_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
 }
 
 impl ReflectiveShadowMap {
-    pub fn new(ctx: &GpuContext, scene: &Scene, gpu_scene: &GpuScene, size: u32) -> Result<Self, RenderError> {
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &Scene,
+        gpu_scene: &GpuScene,
+        size: u32,
+    ) -> Result<Self, RenderError> {
         let device = &ctx.device;
         let limits = ctx.limits();
         if size > limits.max_texture_dimension_2d {
@@ -209,8 +218,9 @@ impl ReflectiveShadowMap {
                 bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&view_layout)],
                 immediate_size: 0,
             });
-            let color =
-                |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+            let color = |format| {
+                Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })
+            };
             Some(frame::scene_raster_pipeline(
                 device,
                 "rsm map",
@@ -250,7 +260,10 @@ impl ReflectiveShadowMap {
                     binding: 0,
                     resource: wgpu::BindingResource::TextureView(&array_view(&position)),
                 },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&array_view(&normal)) },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&array_view(&normal)),
+                },
                 wgpu::BindGroupEntry {
                     binding: 2,
                     resource: wgpu::BindingResource::TextureView(&array_view(&intensity)),
@@ -261,7 +274,6 @@ impl ReflectiveShadowMap {
         });
         Ok(ReflectiveShadowMap {
             size,
-            layers,
             lights: light_data,
             views,
             position,
@@ -283,7 +295,12 @@ impl ReflectiveShadowMap {
     }
 
     /// Renders the maps as the pass "rsm" (once: scene and lights are static).
-    pub fn render(&mut self, ctx: &GpuContext, scene: &GpuScene, profiler: &mut Profiler) -> Result<(), RenderError> {
+    pub fn render(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        profiler: &mut Profiler,
+    ) -> Result<(), RenderError> {
         if self.rendered {
             return Ok(());
         }

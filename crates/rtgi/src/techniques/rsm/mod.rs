@@ -47,15 +47,16 @@ const SAMPLES: ParamSpec = ParamSpec {
 const R_MAX: ParamSpec = ParamSpec {
     name: "r_max",
     kind: ParamKind::Float { min: 0.001, max: 1.5 },
-    default: "0.5",
-    doc: "radius of the sampling disc around the pixel's RSM position, in RSM texture space",
+    default: "1.0",
+    doc: "radius of the sampling disc around the pixel's RSM position, in RSM texture space (texels farther \
+          away are never gathered: below ~1 the method is biased)",
 };
 const WEIGHTING: ParamSpec = ParamSpec {
     name: "weighting",
-    kind: ParamKind::Choice(&["xi2", "xi"]),
-    default: "xi2",
-    doc: "sample weight: xi2 = the paper's ξ1² (scaled to be exact for constant light; biased towards the \
-          rim), xi = ξ1 (the inverse of the pattern's density: unbiased)",
+    kind: ParamKind::Choice(&["xi", "xi2"]),
+    default: "xi",
+    doc: "sample weight: xi = ξ1, the inverse of the pattern's density (unbiased); xi2 = the paper's ξ1² (scaled \
+          to be exact for uniform light, otherwise biased towards the rim: 9x the error on cornell-spot)",
 };
 const INTERLEAVE: ParamSpec = ParamSpec {
     name: "interleave",
@@ -228,7 +229,8 @@ fn hash(mut x: u32) -> u32 {
 /// 1/(2π·r·r_max) per unit area, so the unbiased weight is 2π·r_max²·size²·ξ1 / n; the paper's ξ1² is
 /// scaled by 3 (E[ξ1²] = 1/3) instead, which is exact when the texels are all alike.
 pub fn gather_samples(s: &Sampling, seed: u32, frame: u32) -> Vec<[f32; 4]> {
-    let scramble = (hash(seed ^ 0x9e37_79b9), hash(hash(seed).wrapping_add(frame).wrapping_mul(0x85eb_ca6b) ^ 7));
+    let scramble =
+        (hash(seed ^ 0x9e37_79b9), hash(hash(seed).wrapping_add(frame).wrapping_mul(0x85eb_ca6b) ^ 7));
     let (sx, sy) = if frame == 0 && seed == 0 { (0, 0) } else { scramble };
     let texels = std::f32::consts::PI * s.r_max * s.r_max * (s.rsm_size as f32).powi(2);
     (0..s.count)
@@ -256,7 +258,11 @@ pub struct Composite {
 }
 
 impl Composite {
-    pub fn new(setup: &TechniqueSetup, direct: &wgpu::Texture, indirect: Indirect) -> Result<Self, RenderError> {
+    pub fn new(
+        setup: &TechniqueSetup,
+        direct: &wgpu::Texture,
+        indirect: Indirect,
+    ) -> Result<Self, RenderError> {
         let ctx = setup.ctx;
         let float = wgpu::TextureSampleType::Float { filterable: false };
         let mut entries = vec![
@@ -268,14 +274,17 @@ impl Composite {
             Indirect::Packed(_) => compute::storage_buffer_entry(3, true),
         });
         let bgl = compute::layout(ctx, "composite", &entries);
-        let (dv, ov) = (direct.create_view(&Default::default()), setup.output.create_view(&Default::default()));
+        let (dv, ov) =
+            (direct.create_view(&Default::default()), setup.output.create_view(&Default::default()));
         let iv = match indirect {
             Indirect::Texture(t) => Some(t.create_view(&Default::default())),
             Indirect::Packed(_) => None,
         };
         let third = match (&indirect, &iv) {
             (Indirect::Packed(b), _) => wgpu::BindGroupEntry { binding: 3, resource: b.as_entire_binding() },
-            (_, Some(v)) => wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(v) },
+            (_, Some(v)) => {
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(v) }
+            }
             _ => unreachable!("a texture source has a view"),
         };
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -330,7 +339,11 @@ pub const DEPTH_THRESHOLD: f32 = 0.02;
 pub const NORMAL_COS: f32 = 0.9;
 
 impl Filter {
-    pub fn new(setup: &TechniqueSetup, pattern: (u32, u32), input: &wgpu::Buffer) -> Result<Self, RenderError> {
+    pub fn new(
+        setup: &TechniqueSetup,
+        pattern: (u32, u32),
+        input: &wgpu::Buffer,
+    ) -> Result<Self, RenderError> {
         let bytes = discontinuity::packed_buffer_bytes(setup.frame.width, setup.frame.height, 1);
         let output = compute::storage_buffer(setup.ctx, "filtered indirect", bytes);
         let settings = FilterSettings {
@@ -354,5 +367,9 @@ impl Filter {
 
 /// A packed half-float buffer of one vec4 per pixel.
 pub fn packed_buffer(setup: &TechniqueSetup, label: &str) -> wgpu::Buffer {
-    compute::storage_buffer(setup.ctx, label, discontinuity::packed_buffer_bytes(setup.frame.width, setup.frame.height, 1))
+    compute::storage_buffer(
+        setup.ctx,
+        label,
+        discontinuity::packed_buffer_bytes(setup.frame.width, setup.frame.height, 1),
+    )
 }

@@ -8,7 +8,7 @@ use super::interleave::{self, AtlasLayout, Merge, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
 use super::{Composite, Filter, Indirect, packed_buffer};
 use crate::frame::OUTPUT_FORMAT;
-use crate::gpu::{GpuContext, Profiler};
+use crate::gpu::{GpuContext, Profiler, readback};
 use crate::render::RenderError;
 use crate::shaders::{self, Defines};
 use crate::techniques::compute;
@@ -64,10 +64,10 @@ pub struct Splat {
     vpl_group: wgpu::BindGroup,
     params: VplParams,
     params_buffer: wgpu::Buffer,
-    pub(super) vpl_buffer: wgpu::Buffer,
+    vpl_buffer: wgpu::Buffer,
     splat_pipeline: wgpu::RenderPipeline,
     splat_group: wgpu::BindGroup,
-    pub(super) atlas: wgpu::Texture,
+    atlas: wgpu::Texture,
     atlas_view: wgpu::TextureView,
     merge: Option<Merge>,
     filter: Option<Filter>,
@@ -107,7 +107,11 @@ impl Splat {
         let vpl_layout = compute::layout(
             ctx,
             "vpl selection",
-            &[compute::storage_buffer_entry(0, false), compute::storage_buffer_entry(1, false), compute::uniform_entry(2)],
+            &[
+                compute::storage_buffer_entry(0, false),
+                compute::storage_buffer_entry(1, false),
+                compute::uniform_entry(2),
+            ],
         );
         let vpl_group = compute::bind_group(
             ctx,
@@ -115,7 +119,8 @@ impl Splat {
             &vpl_layout,
             &[cdf.as_entire_binding(), vpl_buffer.as_entire_binding(), params_buffer.as_entire_binding()],
         );
-        let layouts = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &vpl_layout, &rsm.layout];
+        let layouts =
+            [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &vpl_layout, &rsm.layout];
         let source = vpl_source();
         let cdf_pipeline = compute::pipeline(ctx, "rsm cdf", &source, Defines::new(), "build_cdf", &layouts)?;
         let vpl_pipeline = compute::pipeline(ctx, "vpls", &source, Defines::new(), "make_vpls", &layouts)?;
@@ -147,7 +152,8 @@ impl Splat {
         }];
         entries.extend(interleave::surface_entries(wgpu::ShaderStages::FRAGMENT));
         let splat_layout = compute::layout(ctx, "splat", &entries);
-        let mut resources = vec![wgpu::BindGroupEntry { binding: 0, resource: vpl_buffer.as_entire_binding() }];
+        let mut resources =
+            vec![wgpu::BindGroupEntry { binding: 0, resource: vpl_buffer.as_entire_binding() }];
         for (i, r) in split.resources().into_iter().enumerate() {
             resources.push(wgpu::BindGroupEntry { binding: 8 + i as u32, resource: r });
         }
@@ -156,10 +162,8 @@ impl Splat {
             layout: &splat_layout,
             entries: &resources,
         });
-        let defines = layout
-            .defines(Defines::new())
-            .bool("SPLIT_GBUFFER", layout.is_interleaved())
-            .f32("SCALE", scale);
+        let defines =
+            layout.defines(Defines::new()).bool("SPLIT_GBUFFER", layout.is_interleaved()).f32("SCALE", scale);
         let module = shaders::create_module(&ctx.device, "splat", &splat_source(), &defines)?;
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("splat"),
@@ -206,7 +210,14 @@ impl Splat {
         let mut filter = None;
         let composite = if layout.is_interleaved() {
             let merged = packed_buffer(setup, "sii indirect merged");
-            merge = Some(Merge::new(ctx, setup.frame, &setup.gpu_scene.bind_group_layout, layout, &atlas, &merged)?);
+            merge = Some(Merge::new(
+                ctx,
+                setup.frame,
+                &setup.gpu_scene.bind_group_layout,
+                layout,
+                &atlas,
+                &merged,
+            )?);
             let f = Filter::new(setup, pattern, &merged)?;
             let c = Composite::new(setup, &direct_target, Indirect::Packed(f.output()))?;
             filter = Some(f);
@@ -255,7 +266,9 @@ impl Technique for Splat {
         let groups = [scene, frame, &self.vpl_group, &self.rsm.bind_group];
         if !self.cdf_built {
             self.cdf_built = true;
-            profiler.pass(ctx, "rsm flux cdf", |e| compute::dispatch(e, "rsm cdf", &self.cdf_pipeline, &groups, [1, 1, 1]))?;
+            profiler.pass(ctx, "rsm flux cdf", |e| {
+                compute::dispatch(e, "rsm cdf", &self.cdf_pipeline, &groups, [1, 1, 1])
+            })?;
         }
         profiler.pass(ctx, "vpl selection", |e| {
             compute::dispatch(e, "vpls", &self.vpl_pipeline, &groups, [self.params.count.div_ceil(64), 1, 1])
@@ -270,7 +283,10 @@ impl Technique for Splat {
                     view: &self.atlas_view,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
                 })],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
@@ -293,15 +309,44 @@ impl Technique for Splat {
         self.composite.render(fc, profiler)
     }
 
-    fn counters(&mut self, _ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
+    fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
         let mut c = BTreeMap::new();
+        // Splat fragments shaded in the last frame (the atlas's alpha counts them) and the splat radius.
+        let atlas =
+            readback::read_texture(ctx, &self.atlas, self.atlas_format.block_copy_size(None).unwrap_or(16))?;
+        let fragments: f64 = if self.atlas_format == wgpu::TextureFormat::Rgba32Float {
+            bytemuck::cast_slice::<u8, f32>(&atlas).chunks_exact(4).map(|t| f64::from(t[3])).sum()
+        } else {
+            bytemuck::cast_slice::<u8, u16>(&atlas)
+                .chunks_exact(4)
+                .map(|t| f64::from(half::f16::from_bits(t[3]).to_f32()))
+                .sum()
+        };
+        c.insert("splat_fragments".into(), fragments);
+        let (aw, ah) = self.layout.size();
+        c.insert("splat_fragments_per_pixel".into(), fragments / f64::from(aw * ah));
+        let bytes = readback::read_buffer(
+            ctx,
+            &self.vpl_buffer,
+            0,
+            u64::from(self.params.count) * size_of::<GpuVpl>() as u64,
+        )?;
+        let vpls: &[GpuVpl] = bytemuck::cast_slice(&bytes);
+        let mean_radius = vpls.iter().map(|v| f64::from(v.radius)).sum::<f64>() / vpls.len().max(1) as f64;
+        c.insert("mean_splat_radius_m".into(), mean_radius);
         c.insert("rsm_texels".into(), f64::from(self.rsm.texels()));
         c.insert("rsm_layers".into(), self.rsm.views.len() as f64);
         c.insert("rsm_bytes".into(), f64::from(self.rsm.texels() * map::BYTES_PER_TEXEL));
         c.insert("vpls".into(), f64::from(self.params.count));
-        c.insert("vpls_per_subbuffer".into(), f64::from(self.params.count) / f64::from(self.layout.subsets()));
+        c.insert(
+            "vpls_per_subbuffer".into(),
+            f64::from(self.params.count) / f64::from(self.layout.subsets()),
+        );
         c.insert("sample_subsets".into(), f64::from(self.layout.subsets()));
-        c.insert("atlas_bytes_per_texel".into(), f64::from(self.atlas_format.block_copy_size(None).unwrap_or(0)));
+        c.insert(
+            "atlas_bytes_per_texel".into(),
+            f64::from(self.atlas_format.block_copy_size(None).unwrap_or(0)),
+        );
         Ok(c)
     }
 

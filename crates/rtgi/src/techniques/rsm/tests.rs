@@ -59,7 +59,11 @@ fn shaders_validate() {
         size_of::<RsmView>(),
         &[("view_proj", 0), ("light", 64), ("orthographic", 68), ("texel", 72), ("size", 76)],
     );
-    validate("splat", &splat::splat_source(), &atlas_defines(&l).bool("SPLIT_GBUFFER", true).f32("SCALE", 8.0));
+    validate(
+        "splat",
+        &splat::splat_source(),
+        &atlas_defines(&l).bool("SPLIT_GBUFFER", true).f32("SCALE", 8.0),
+    );
 }
 
 #[test]
@@ -156,7 +160,8 @@ fn split_then_merge_reproduces_the_gbuffer_exactly() {
     assert!(originals[3].chunks(4).any(|d| f32::from_le_bytes([d[0], d[1], d[2], d[3]]) > 0.0));
     for (n, m) in [(2, 2), (2, 4), (4, 4), (8, 8), (3, 5)] {
         let l = AtlasLayout::interleaved(61, 37, n, m);
-        let split = interleave::SplitGBuffer::new(ctx, &f.frame, l, &f.gpu_scene.bind_group_layout).expect("split");
+        let split =
+            interleave::SplitGBuffer::new(ctx, &f.frame, l, &f.gpu_scene.bind_group_layout).expect("split");
         let outputs: Vec<wgpu::Texture> =
             formats.iter().map(|(fmt, _)| compute::storage_texture(ctx, "merged", 61, 37, *fmt)).collect();
         let mut entries: Vec<wgpu::BindGroupLayoutEntry> = formats
@@ -166,11 +171,15 @@ fn split_then_merge_reproduces_the_gbuffer_exactly() {
             .collect();
         entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
         let bgl = compute::layout(ctx, "merge gbuffer", &entries);
-        let views: Vec<wgpu::TextureView> = outputs.iter().map(|t| t.create_view(&Default::default())).collect();
+        let views: Vec<wgpu::TextureView> =
+            outputs.iter().map(|t| t.create_view(&Default::default())).collect();
         let mut resources: Vec<wgpu::BindGroupEntry> = views
             .iter()
             .enumerate()
-            .map(|(i, v)| wgpu::BindGroupEntry { binding: i as u32, resource: wgpu::BindingResource::TextureView(v) })
+            .map(|(i, v)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: wgpu::BindingResource::TextureView(v),
+            })
             .collect();
         for (i, r) in split.resources().into_iter().enumerate() {
             resources.push(wgpu::BindGroupEntry { binding: 8 + i as u32, resource: r });
@@ -243,8 +252,13 @@ fn rsm_kernel_is_phi_over_d_squared_head_on() {
         usage: wgpu::BufferUsages::STORAGE,
     });
     let output = compute::storage_buffer(&ctx, "results", cases.len() as u64 * 4);
-    let bgl = compute::layout(&ctx, "kernel", &[compute::storage_buffer_entry(0, true), compute::storage_buffer_entry(1, false)]);
-    let group = compute::bind_group(&ctx, "kernel", &bgl, &[input.as_entire_binding(), output.as_entire_binding()]);
+    let bgl = compute::layout(
+        &ctx,
+        "kernel",
+        &[compute::storage_buffer_entry(0, true), compute::storage_buffer_entry(1, false)],
+    );
+    let group =
+        compute::bind_group(&ctx, "kernel", &bgl, &[input.as_entire_binding(), output.as_entire_binding()]);
     let source = format!(
         "{}\n{}",
         map::KERNEL_WGSL,
@@ -259,7 +273,8 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
 }
 "
     );
-    let pipeline = compute::pipeline(&ctx, "kernel", &source, Defines::new(), "main", &[&bgl]).expect("pipeline");
+    let pipeline =
+        compute::pipeline(&ctx, "kernel", &source, Defines::new(), "main", &[&bgl]).expect("pipeline");
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     compute::dispatch(&mut encoder, "kernel", &pipeline, &[&group], [cases.len() as u32, 1, 1]);
     ctx.queue.submit([encoder.finish()]);
