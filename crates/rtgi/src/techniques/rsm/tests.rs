@@ -230,7 +230,8 @@ fn rsm_kernel_is_phi_over_d_squared_head_on() {
     let phi = 2.0f32;
     // (x_p, n_p, x, n, expected E): head-on at several distances, oblique, facing away, behind.
     let (s, c) = (0.6f32, 0.8f32);
-    let cases: Vec<([f32; 3], [f32; 3], [f32; 3], [f32; 3], f32)> = vec![
+    type Case = ([f32; 3], [f32; 3], [f32; 3], [f32; 3], f32);
+    let cases: Vec<Case> = vec![
         ([0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 0.5], [0.0, 0.0, -1.0], phi / 0.25),
         ([0.0; 3], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], phi),
         ([1.0, 2.0, 3.0], [0.0, 1.0, 0.0], [1.0, 5.0, 3.0], [0.0, -1.0, 0.0], phi / 9.0),

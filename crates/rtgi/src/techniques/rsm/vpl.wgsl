@@ -95,8 +95,10 @@ fn make_vpls(@builtin(global_invocation_id) id: vec3u) {
     let lum = max(luminance(p.intensity), 1e-30);
     v.position = p.position;
     v.normal = p.normal;
-    v.area = p.area;
-    v.intensity = p.intensity * (total / (f32(params.count) * lum));
+    // The VPL stands for `weight` pixel lights: its distance clamp is their joint area.
+    let weight = total / (f32(params.count) * lum);
+    v.area = p.area * weight;
+    v.intensity = p.intensity * weight;
     // Bound lum(I)/(π d²) against threshold × (Σ lum / N) / (π R²), R = scene radius.
     let scene_radius = 0.5 * length(scene_info.bounds_max - scene_info.bounds_min);
     let mean = total / f32(params.count);

@@ -1,0 +1,174 @@
+#!/usr/bin/env bash
+# Measurements of `rsm`, `rsm-interleaved` and `sii` (issue 5), printed as Markdown tables:
+#   1. error against the one-bounce reference (`path`, max_bounces=1) on cornell-spot 256², and against the
+#      methods' own converged value (brute-force gather of every RSM texel: no indirect occlusion);
+#   2. the thesis's timing sweep as ratios interleaved / non-interleaved, for gather and for splatting;
+#   3. light reaching the dark room of two-rooms, per technique and in the references.
+# Usage: scripts/measure-rsm.sh [section...]   (sections: errors timing tworooms; default: all)
+# Environment: RTGI (binary, default target/release/rtgi), REF_DIR (256², 1024-spp references named
+# cornell-spot-b1, two-rooms-b1, two-rooms-full .exr; default /work/refs; missing ones are rendered once with
+# `rtgi reference` into $OUT/refs: slow), OUT (scratch, default target/measure-rsm).
+# Timing: per-pass wall time per frame from the stats JSON, (sum over 4 frames − first frame) / 3, so that
+# lavapipe's pipeline compilation in the first frame is excluded.
+set -euo pipefail
+export NODEVICE_SELECT=1
+cd "$(dirname "$0")/.."
+RTGI=${RTGI:-target/release/rtgi}
+OUT=${OUT:-target/measure-rsm}
+REF_DIR=${REF_DIR:-/work/refs}
+mkdir -p "$OUT"
+SECTIONS=${*:-errors timing tworooms}
+
+ref() { # name scene bounces: $REF_DIR/name.exr, else rendered once into $OUT/refs
+    local f="$REF_DIR/$1.exr"
+    [[ -f "$f" ]] && { echo "$f"; return; }
+    mkdir -p "$OUT/refs"
+    f="$OUT/refs/$1.exr"
+    if [[ ! -f "$f" ]]; then
+        local set=()
+        [[ "$3" != "-1" ]] && set=(--set "max_bounces=$3")
+        "$RTGI" reference --scene "$2" --size 256x256 --spp 1024 "${set[@]}" --out "$f" >&2
+    fi
+    echo "$f"
+}
+
+render() { # out scene technique frames settings...
+    local out=$1 scene=$2 technique=$3 frames=$4
+    shift 4
+    local set=()
+    for s in "$@"; do set+=(--set "$s"); done
+    "$RTGI" render --scene "$scene" --technique "$technique" --size 256x256 --frames "$frames" \
+        --out "$OUT/$out.exr" --stats "$OUT/$out.json" "${set[@]}" >/dev/null 2>&1
+}
+
+cmp_json() { "$RTGI" compare "$1" "$2" --json "${@:3}"; }
+
+if [[ " $SECTIONS " == *" errors "* ]]; then
+    REF=$(ref cornell-spot-b1 cornell-spot 1)
+    render bruteforce cornell-spot rsm 1 brute_force=true downsample=1
+    BF=$OUT/bruteforce.exr
+    render direct cornell-spot direct 1
+    echo "### Error against the one-bounce reference (cornell-spot 256², 1 frame)"
+    echo
+    echo "FLIP / relMSE against \`path max_bounces=1\` (1024 spp); in brackets relMSE against the brute-force gather"
+    echo "of all RSM texels (the methods' converged value, without indirect occlusion)."
+    echo
+    echo "brute-force gather vs reference: $(cmp_json "$REF" "$BF" | python3 -c 'import json,sys;m=json.load(sys.stdin);print("FLIP %.4f, relMSE %.5f" % (m["flip"], m["rel_mse"]))') —"
+    echo "the error no sample count removes (missing indirect visibility, RSM discretisation, the clamp of d² at the texel area)."
+    echo "direct only vs reference: $(cmp_json "$REF" "$OUT/direct.exr" | python3 -c 'import json,sys;m=json.load(sys.stdin);print("FLIP %.4f, relMSE %.5f" % (m["flip"], m["rel_mse"]))')."
+    echo
+    echo "| technique | settings | 64 | 256 | 1024 |"
+    echo "|---|---|---|---|---|"
+    while IFS='|' read -r technique count_key settings; do
+        row="| $technique | ${settings:-defaults} |"
+        for n in 64 256 1024; do
+            name="err-$technique-${settings// /_}-$n"
+            name=${name//=/}
+            # shellcheck disable=SC2086
+            render "$name" cornell-spot "$technique" 1 "$count_key=$n" $settings
+            row+=" $(python3 - "$(cmp_json "$REF" "$OUT/$name.exr")" "$(cmp_json "$BF" "$OUT/$name.exr")" <<'PY'
+import json, sys
+r, b = json.loads(sys.argv[1]), json.loads(sys.argv[2])
+print("%.4f / %.5f (%.5f)" % (r["flip"], r["rel_mse"], b["rel_mse"]))
+PY
+) |"
+        done
+        echo "$row"
+    done <<'ROWS'
+rsm|samples|
+rsm|samples|weighting=xi2
+rsm|samples|downsample=1
+rsm-interleaved|samples|interleave=2x2
+rsm-interleaved|samples|interleave=4x4
+rsm-interleaved|samples|interleave=8x8
+sii|vpls|
+sii|vpls|interleave=2x2
+sii|vpls|interleave=4x4
+sii|vpls|interleave=8x8
+sii|vpls|interleave=2x2 rescale=false
+sii|vpls|interleave=4x4 rescale=false
+sii|vpls|interleave=8x8 rescale=false
+ROWS
+    echo
+fi
+
+# Per-frame wall ms of the passes in $2.. of stats files $1-f1.json / $1-f4.json.
+window_ms() {
+    python3 - "$OUT/$1-f1.json" "$OUT/$1-f4.json" "${@:2}" <<'PY'
+import json, sys
+one, four = (json.load(open(p)) for p in sys.argv[1:3])
+def total(stats):
+    return {p["name"]: p["wall_ms"] for p in stats["passes"]}
+a, b = total(one), total(four)
+print("%.2f" % sum((b.get(n, 0.0) - a.get(n, 0.0)) / 3.0 for n in sys.argv[3:]))
+PY
+}
+
+if [[ " $SECTIONS " == *" timing "* ]]; then
+    echo "### Timing sweep: interleaved / non-interleaved (256², RSM 256², per frame, lavapipe wall time)"
+    echo
+    echo "Window as in the thesis: after RSM generation to after the blur. Gather: split + gather + merge +"
+    echo "discontinuity filter over the non-interleaved full-resolution gather; splatting: split + splat + merge +"
+    echo "filter over the non-interleaved splat (VPL selection, common to both, excluded). In brackets: the"
+    echo "gather or splat pass alone over its non-interleaved time. First column: non-interleaved ms."
+    echo
+    for kind in gather splat; do
+        echo "**$kind**"
+        echo
+        echo "| count | 1x1 ms | 2x2 | 2x4 | 4x4 | 8x8 |"
+        echo "|---|---|---|---|---|---|"
+        for n in 64 128 256 512 768 1024; do
+            if [[ $kind == gather ]]; then
+                base_args=(rsm samples=$n downsample=1); passes=("rsm gather"); core="rsm gather"
+            else
+                base_args=(sii vpls=$n); passes=("splat"); core="splat"
+            fi
+            for f in 1 4; do render "t-$kind-$n-1x1-f$f" cornell-spot "${base_args[0]}" $f "${base_args[@]:1}"; done
+            base=$(window_ms "t-$kind-$n-1x1" "${passes[@]}")
+            row="| $n | $base |"
+            for p in 2x2 2x4 4x4 8x8; do
+                if [[ $kind == gather ]]; then args=(rsm-interleaved samples=$n interleave=$p); else args=(sii vpls=$n interleave=$p); fi
+                for f in 1 4; do render "t-$kind-$n-$p-f$f" cornell-spot "${args[0]}" $f "${args[@]:1}"; done
+                win=$(window_ms "t-$kind-$n-$p" split "$core" merge "discontinuity filter")
+                c=$(window_ms "t-$kind-$n-$p" "$core")
+                row+=" $(python3 -c "print('%.1f %% (%.1f %%)' % (100*$win/$base, 100*$c/$base))") |"
+            done
+            echo "$row"
+        done
+        echo
+    done
+fi
+
+if [[ " $SECTIONS " == *" tworooms "* ]]; then
+    B1=$(ref two-rooms-b1 two-rooms 1)
+    FULL=$(ref two-rooms-full two-rooms -1)
+    echo "### Light in the dark room of two-rooms (256², 1024 samples / VPLs)"
+    echo
+    echo "Mean luminance (linear radiance) in pixel rectangles showing only room 2 (the camera's room): its"
+    echo "floor (0,200,256,56) and the room-2 face of the dividing wall left of the doorway (0,0,100,200). The"
+    echo "spot cannot reach room 2, so all of it is indirect light; in the references it enters through the doorway."
+    echo
+    echo "| image | floor | ratio to one-bounce ref | divider face | ratio |"
+    echo "|---|---|---|---|---|"
+    render tr-bruteforce two-rooms rsm 1 brute_force=true downsample=1 rsm_size=128
+    render tr-direct two-rooms direct 1
+    render tr-rsm two-rooms rsm 1 samples=1024
+    render tr-rsmi two-rooms rsm-interleaved 1 samples=1024 interleave=4x4
+    render tr-sii two-rooms sii 1 vpls=1024
+    render tr-siii two-rooms sii 1 vpls=1024 interleave=4x4
+    for entry in "path max_bounces=1 (reference)|$B1" "path, all bounces|$FULL" "direct|$OUT/tr-direct.exr" \
+        "rsm brute force (rsm_size 128)|$OUT/tr-bruteforce.exr" "rsm 1024|$OUT/tr-rsm.exr" \
+        "rsm-interleaved 4x4 1024|$OUT/tr-rsmi.exr" "sii 1024|$OUT/tr-sii.exr" "sii 4x4 1024|$OUT/tr-siii.exr"; do
+        label=${entry%%|*}
+        img=${entry#*|}
+        python3 - "$label" "$(cmp_json "$B1" "$img" --region 0,200,256,56)" "$(cmp_json "$B1" "$img" --region 0,0,100,200)" <<'PY'
+import json, sys
+a, b = json.loads(sys.argv[2])["region"], json.loads(sys.argv[3])["region"]
+def r(x, y):
+    return "%.2f" % (x / y) if y > 0 else "-"
+print("| %s | %.5f | %s | %.5f | %s |" % (sys.argv[1], a["test_luminance"], r(a["test_luminance"], a["reference_luminance"]),
+      b["test_luminance"], r(b["test_luminance"], b["reference_luminance"])))
+PY
+    done
+    echo
+fi
