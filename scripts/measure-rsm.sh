@@ -8,8 +8,8 @@
 # Environment: RTGI (binary, default target/release/rtgi), REF_DIR (256², 1024-spp references named
 # cornell-spot-b1, two-rooms-b1, two-rooms-full .exr; default /work/refs; missing ones are rendered once with
 # `rtgi reference` into $OUT/refs: slow), OUT (scratch, default target/measure-rsm).
-# Timing: per-pass wall time per frame from the stats JSON, (sum over 4 frames − first frame) / 3, so that
-# lavapipe's pipeline compilation in the first frame is excluded.
+# Timing: per-pass `steady_wall_ms` from the stats JSON (mean over frames 2..FRAMES, default 4), which leaves
+# out lavapipe's lazy pipeline compilation in the first frame.
 set -euo pipefail
 export NODEVICE_SELECT=1
 cd "$(dirname "$0")/.."
@@ -18,6 +18,7 @@ OUT=${OUT:-target/measure-rsm}
 REF_DIR=${REF_DIR:-/work/refs}
 mkdir -p "$OUT"
 SECTIONS=${*:-errors timing tworooms}
+FRAMES=${FRAMES:-4}
 
 ref() { # name scene bounces: $REF_DIR/name.exr, else rendered once into $OUT/refs
     local f="$REF_DIR/$1.exr"
@@ -92,20 +93,17 @@ ROWS
     echo
 fi
 
-# Per-frame wall ms of the passes in $2.. of stats files $1-f1.json / $1-f4.json.
+# Steady per-frame wall ms (frames after the first) of the passes $2.. in stats file $OUT/$1.json.
 window_ms() {
-    python3 - "$OUT/$1-f1.json" "$OUT/$1-f4.json" "${@:2}" <<'PY'
+    python3 - "$OUT/$1.json" "${@:2}" <<'PY'
 import json, sys
-one, four = (json.load(open(p)) for p in sys.argv[1:3])
-def total(stats):
-    return {p["name"]: p["wall_ms"] for p in stats["passes"]}
-a, b = total(one), total(four)
-print("%.2f" % sum((b.get(n, 0.0) - a.get(n, 0.0)) / 3.0 for n in sys.argv[3:]))
+passes = {p["name"]: p for p in json.load(open(sys.argv[1]))["passes"]}
+print("%.2f" % sum(passes[n]["steady_wall_ms"] for n in sys.argv[2:] if n in passes))
 PY
 }
 
 if [[ " $SECTIONS " == *" timing "* ]]; then
-    echo "### Timing sweep: interleaved / non-interleaved (256², RSM 256², per frame, lavapipe wall time)"
+    echo "### Timing sweep: interleaved / non-interleaved (256², RSM 256², mean of frames 2–$FRAMES, lavapipe wall time)"
     echo
     echo "Window as in the thesis: after RSM generation to after the blur. Gather: split + gather + merge +"
     echo "discontinuity filter over the non-interleaved full-resolution gather; splatting: split + splat + merge +"
@@ -123,12 +121,12 @@ if [[ " $SECTIONS " == *" timing "* ]]; then
             else
                 base_args=(sii vpls=$n); passes=("splat"); core="splat"
             fi
-            for f in 1 4; do render "t-$kind-$n-1x1-f$f" cornell-spot "${base_args[0]}" $f "${base_args[@]:1}"; done
+            render "t-$kind-$n-1x1" cornell-spot "${base_args[0]}" $FRAMES "${base_args[@]:1}"
             base=$(window_ms "t-$kind-$n-1x1" "${passes[@]}")
             row="| $n | $base |"
             for p in 2x2 2x4 4x4 8x8; do
                 if [[ $kind == gather ]]; then args=(rsm-interleaved samples=$n interleave=$p); else args=(sii vpls=$n interleave=$p); fi
-                for f in 1 4; do render "t-$kind-$n-$p-f$f" cornell-spot "${args[0]}" $f "${args[@]:1}"; done
+                render "t-$kind-$n-$p" cornell-spot "${args[0]}" $FRAMES "${args[@]:1}"
                 win=$(window_ms "t-$kind-$n-$p" split "$core" merge "discontinuity filter")
                 c=$(window_ms "t-$kind-$n-$p" "$core")
                 row+=" $(python3 -c "print('%.1f %% (%.1f %%)' % (100*$win/$base, 100*$c/$base))") |"

@@ -47,6 +47,11 @@ pub struct PassTiming {
     /// Wall time from submission to completion with passes serialised (exact on CPU drivers, an upper
     /// bound on GPUs).
     pub wall_ms: f64,
+    /// How often the pass ran (e.g. once per frame).
+    pub calls: u32,
+    /// Mean wall time of the calls after the first (whose time includes lazy pipeline compilation on some
+    /// drivers); `None` after a single call.
+    pub steady_wall_ms: Option<f64>,
 }
 
 /// Statistics of a render, written by `rtgi render --stats`.

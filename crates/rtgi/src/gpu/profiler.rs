@@ -23,7 +23,8 @@ struct Timestamps {
 pub struct Profiler {
     timestamps: Option<Timestamps>,
     order: Vec<String>,
-    totals: BTreeMap<String, (f64, f64)>,
+    /// Per pass: wall ms, GPU ms, calls, wall ms of the first call.
+    totals: BTreeMap<String, (f64, f64, u32, f64)>,
 }
 
 impl Profiler {
@@ -77,9 +78,10 @@ impl Profiler {
         if !self.totals.contains_key(name) {
             self.order.push(name.to_string());
         }
-        let e = self.totals.entry(name.to_string()).or_insert((0.0, 0.0));
+        let e = self.totals.entry(name.to_string()).or_insert((0.0, 0.0, 0, wall_ms));
         e.0 += wall_ms;
         e.1 += gpu_ms;
+        e.2 += 1;
         Ok(result)
     }
 
@@ -106,8 +108,15 @@ impl Profiler {
         self.order
             .iter()
             .map(|name| {
-                let (wall, gpu) = self.totals[name];
-                PassTiming { name: name.clone(), gpu_ms: reliable.then_some(gpu), wall_ms: wall }
+                let (wall, gpu, calls, first) = self.totals[name];
+                PassTiming {
+                    name: name.clone(),
+                    gpu_ms: reliable.then_some(gpu),
+                    wall_ms: wall,
+                    calls,
+                    // Later calls without the first, which includes the driver's lazy pipeline compilation.
+                    steady_wall_ms: (calls > 1).then(|| (wall - first) / f64::from(calls - 1)),
+                }
             })
             .collect()
     }

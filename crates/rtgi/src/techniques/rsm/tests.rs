@@ -328,3 +328,94 @@ fn every_vpl_reaches_exactly_one_sub_buffer() {
     // Every sub-buffer received splats: the cornell box fills the view and the VPLs reach the whole box.
     assert!(reached.iter().all(|&r| r > 0.0), "{reached:?}");
 }
+
+/// Sum over all RSM texels of the reflected flux Φ_p = π·I_p, per colour channel.
+fn rsm_total_flux(ctx: &crate::gpu::GpuContext, rsm: &map::ReflectiveShadowMap) -> [f64; 3] {
+    let mut sum = [0.0f64; 3];
+    for layer in 0..rsm.views.len() as u32 {
+        let temp = ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("rsm layer"),
+            size: wgpu::Extent3d { width: rsm.size, height: rsm.size, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: map::INTENSITY_FORMAT,
+            usage: wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &rsm.intensity,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+                aspect: wgpu::TextureAspect::All,
+            },
+            temp.as_image_copy(),
+            wgpu::Extent3d { width: rsm.size, height: rsm.size, depth_or_array_layers: 1 },
+        );
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = crate::gpu::readback::read_texture(ctx, &temp, 16).expect("readback");
+        for t in bytemuck::cast_slice::<u8, f32>(&bytes).chunks_exact(4) {
+            for c in 0..3 {
+                sum[c] += f64::from(t[c]) * std::f64::consts::PI;
+            }
+        }
+    }
+    sum
+}
+
+/// The RSM's texels carry all the light a light sends into a closed grey box (albedo 0.8), reflected:
+/// 0.8 · 4π·I for a point light (six cube faces), 0.8 · I·∫cone for a spot light, 0.8 · E·A for a
+/// directional light on the box's 2 m × 2 m top. This checks each view's texel solid angle or area.
+#[test]
+fn rsm_texels_carry_the_reflected_flux_of_every_light_type() {
+    use crate::gpu::{GpuContext, GpuOptions, GpuScene, Profiler};
+    use crate::scene::Light;
+    use glam::Vec3;
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let settings = [("emission".to_string(), "0".to_string()), ("albedo".to_string(), "0.8".to_string())];
+    let base = crate::scene::builtin::build("furnace", &settings).expect("scene");
+    let intensity = Vec3::new(1.0, 2.0, 3.0);
+    let (inner, outer) = (20f64.to_radians(), 30f64.to_radians());
+    // ∫ over the cone of the spot's squared linear ramp in cos θ, 2π sin θ dθ.
+    let steps = 100_000;
+    let cone: f64 = (0..steps)
+        .map(|i| {
+            let t = (i as f64 + 0.5) / steps as f64 * outer;
+            let a = ((t.cos() - outer.cos()) / (inner.cos() - outer.cos())).clamp(0.0, 1.0);
+            a * a * 2.0 * std::f64::consts::PI * t.sin() * (outer / steps as f64)
+        })
+        .sum();
+    let cases = [
+        (Light::Point { position: Vec3::new(0.1, 0.2, -0.3), intensity }, 4.0 * std::f64::consts::PI),
+        (
+            Light::Spot {
+                position: Vec3::new(0.0, 0.5, 0.0),
+                direction: Vec3::NEG_Y,
+                intensity,
+                inner_angle: inner as f32,
+                outer_angle: outer as f32,
+            },
+            cone,
+        ),
+        (Light::Directional { direction: Vec3::NEG_Y, irradiance: intensity }, 4.0),
+    ];
+    for (light, factor) in cases {
+        let mut scene = base.clone();
+        scene.lights = vec![light.clone()];
+        let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
+        let mut rsm = map::ReflectiveShadowMap::new(&ctx, &scene, &gpu_scene, 128).expect("rsm");
+        rsm.render(&ctx, &gpu_scene, &mut Profiler::new(&ctx)).expect("render");
+        let got = rsm_total_flux(&ctx, &rsm);
+        for c in 0..3 {
+            let expected = 0.8 * f64::from(intensity[c]) * factor;
+            assert!(
+                (got[c] / expected - 1.0).abs() < 0.01,
+                "{}: channel {c}: Σ Φ_p = {}, expected {expected}",
+                light.kind_name(),
+                got[c]
+            );
+        }
+    }
+}
