@@ -245,6 +245,25 @@ fn compare_prints_the_three_metrics_as_json() {
 }
 
 #[test]
+fn compare_reports_the_mean_radiance_of_a_region() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    write_exr(dir.path(), "r.exr", 2, 1, vec![0.0, 0.5, 1.0, 2.0, 0.0, 0.1]);
+    write_exr(dir.path(), "t.exr", 2, 1, vec![0.1, 0.5, 0.8, 2.0, 0.3, 0.1]);
+    let out = rtgi_in(dir.path(), &["compare", "r.exr", "t.exr", "--json", "--region", "1,0,1,1"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).expect("one JSON object");
+    let mean = |key: &str| -> Vec<f64> {
+        v["region"][key].as_array().expect(key).iter().map(|x| x.as_f64().expect("number")).collect()
+    };
+    assert_eq!(mean("reference_mean"), vec![2.0, 0.0, 0.10000000149011612], "{v}");
+    assert!((mean("test_mean")[1] - 0.3).abs() < 1e-6, "{v}");
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "r.exr", "t.exr", "--region", "1,0,2,1"]));
+    assert!(line.contains("region"), "{line}");
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "r.exr", "t.exr", "--region", "1,0"]));
+    assert!(line.contains("X,Y,W,H"), "{line}");
+}
+
+#[test]
 fn compare_rejects_mismatched_and_missing_images() {
     let dir = tempfile::tempdir().expect("temp dir");
     write_exr(dir.path(), "a.exr", 2, 1, vec![0.0; 6]);

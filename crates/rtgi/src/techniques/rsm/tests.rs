@@ -403,7 +403,7 @@ fn rsm_texels_carry_the_reflected_flux_of_every_light_type() {
     ];
     for (light, factor) in cases {
         let mut scene = base.clone();
-        scene.lights = vec![light.clone()];
+        scene.lights = vec![light];
         let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
         let mut rsm = map::ReflectiveShadowMap::new(&ctx, &scene, &gpu_scene, 128).expect("rsm");
         rsm.render(&ctx, &gpu_scene, &mut Profiler::new(&ctx)).expect("render");
