@@ -211,7 +211,10 @@ impl Gather {
                 ctx,
                 "rsm upsample",
                 include_str!("upsample.wgsl"),
-                Defines::new().u32("DOWNSAMPLE", downsample),
+                Defines::new()
+                    .u32("DOWNSAMPLE", downsample)
+                    .f32("DEPTH_THRESHOLD", super::DEPTH_THRESHOLD)
+                    .f32("NORMAL_COS", super::NORMAL_COS),
                 "main",
                 &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &bgl],
             )?;

@@ -333,7 +333,8 @@ pub struct Filter {
     output: wgpu::Buffer,
 }
 
-/// Plane-distance tolerance of the blur and the upsampling, relative to the camera distance.
+/// Plane-distance tolerance of the interleaved blur and of the upsampling's similarity test, relative to
+/// the camera distance.
 pub const DEPTH_THRESHOLD: f32 = 0.02;
 /// Smallest cosine between shading normals the blur averages over.
 pub const NORMAL_COS: f32 = 0.9;

@@ -30,7 +30,15 @@ fn shaders_validate() {
                 .bool("SPLIT_GBUFFER", true),
         );
     }
-    validate("upsample", include_str!("upsample.wgsl"), &Defines::new().u32("TILE", 8).u32("DOWNSAMPLE", 2));
+    validate(
+        "upsample",
+        include_str!("upsample.wgsl"),
+        &Defines::new()
+            .u32("TILE", 8)
+            .u32("DOWNSAMPLE", 2)
+            .f32("DEPTH_THRESHOLD", 0.02)
+            .f32("NORMAL_COS", 0.9),
+    );
     validate("composite", include_str!("composite.wgsl"), &Defines::new().u32("TILE", 8));
     let atlas = |body: &str| format!("{}\n{body}", interleave::ATLAS_WGSL);
     validate("split", &atlas(include_str!("split.wgsl")), &atlas_defines(&l));

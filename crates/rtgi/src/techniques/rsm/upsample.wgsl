@@ -1,15 +1,13 @@
 // Geometry-aware upsampling of the reduced-resolution gather (Dachsbacher & Stamminger 2005): each pixel
 // interpolates bilinearly between the four nearest low-resolution samples when all four lie on a surface
-// similar to its own (normals within ~25°, plane distance below 2 % of the view distance); otherwise it
-// is flagged (alpha 0) for a full-resolution gather.
+// similar to its own (shading normals' cosine above NORMAL_COS, distance from its tangent plane below
+// DEPTH_THRESHOLD × the view distance: the same tests as the interleaved blur, from Rust); otherwise it is
+// flagged (alpha 0) for a full-resolution gather.
 
 #import common/frame.wgsl
 
 @group(2) @binding(0) var low: texture_2d<f32>;
 @group(2) @binding(1) var full: texture_storage_2d<rgba32float, write>;
-
-const NORMAL_COS: f32 = 0.9;
-const PLANE_TOLERANCE: f32 = 0.02;
 
 @compute @workgroup_size(TILE, TILE)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -36,7 +34,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         let t = load_gsurface(src);
         let w = select(1.0 - fr.x, fr.x, d.x == 1) * select(1.0 - fr.y, fr.y, d.y == 1);
         let similar = t.valid && dot(t.normal, s.normal) > NORMAL_COS
-            && abs(dot(t.position - s.position, s.normal)) < PLANE_TOLERANCE * s.distance;
+            && abs(dot(t.position - s.position, s.geometric_normal)) < DEPTH_THRESHOLD * s.distance;
         if !similar && w > 0.0 {
             ok = false;
         }
