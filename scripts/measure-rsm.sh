@@ -139,7 +139,11 @@ fi
 
 if [[ " $SECTIONS " == *" tworooms "* ]]; then
     B1=$(ref two-rooms-b1 two-rooms 1)
-    FULL=$(ref two-rooms-full two-rooms -1)
+    # The all-bounce reference is optional (slow): used when present in $REF_DIR or with TWO_ROOMS_FULL=1.
+    FULL=$REF_DIR/two-rooms-full.exr
+    if [[ ! -f "$FULL" ]]; then
+        if [[ "${TWO_ROOMS_FULL:-0}" == 1 ]]; then FULL=$(ref two-rooms-full two-rooms -1); else FULL=""; fi
+    fi
     echo "### Light in the dark room of two-rooms (256², 1024 samples / VPLs)"
     echo
     echo "Mean luminance (linear radiance) in pixel rectangles showing only room 2 (the camera's room): its"
@@ -154,7 +158,9 @@ if [[ " $SECTIONS " == *" tworooms "* ]]; then
     render tr-rsmi two-rooms rsm-interleaved 1 samples=1024 interleave=4x4
     render tr-sii two-rooms sii 1 vpls=1024
     render tr-siii two-rooms sii 1 vpls=1024 interleave=4x4
-    for entry in "path max_bounces=1 (reference)|$B1" "path, all bounces|$FULL" "direct|$OUT/tr-direct.exr" \
+    entries=("path max_bounces=1 (reference)|$B1")
+    [[ -n "$FULL" ]] && entries+=("path, all bounces|$FULL")
+    for entry in "${entries[@]}" "direct|$OUT/tr-direct.exr" \
         "rsm brute force (rsm_size 128)|$OUT/tr-bruteforce.exr" "rsm 1024|$OUT/tr-rsm.exr" \
         "rsm-interleaved 4x4 1024|$OUT/tr-rsmi.exr" "sii 1024|$OUT/tr-sii.exr" "sii 4x4 1024|$OUT/tr-siii.exr"; do
         label=${entry%%|*}
