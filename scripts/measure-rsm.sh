@@ -146,33 +146,39 @@ if [[ " $SECTIONS " == *" tworooms "* ]]; then
     fi
     echo "### Light in the dark room of two-rooms (256², 1024 samples / VPLs)"
     echo
-    echo "Mean luminance (linear radiance) in pixel rectangles showing only room 2 (the camera's room): its"
-    echo "floor (0,200,256,56) and the room-2 face of the dividing wall left of the doorway (0,0,100,200). The"
-    echo "spot cannot reach room 2, so all of it is indirect light; in the references it enters through the doorway."
+    echo "Mean luminance (linear radiance) in pixel rectangles that show only room 2 (the camera's room): its floor"
+    echo "(0,200,256,56), the ceiling strip (0,0,230,15) and the far right wall (240,60,16,120). The spot cannot"
+    echo "reach room 2, so all of it is indirect light; in the references it enters through the doorway only."
+    echo "In brackets: the ratio to the one-bounce reference."
     echo
-    echo "| image | floor | ratio to one-bounce ref | divider face | ratio |"
-    echo "|---|---|---|---|---|"
+    REGIONS=(0,200,256,56 0,0,230,15 240,60,16,120)
+    echo "| image | floor | ceiling | right wall |"
+    echo "|---|---|---|---|"
     render tr-bruteforce two-rooms rsm 1 brute_force=true downsample=1 rsm_size=128
     render tr-direct two-rooms direct 1
     render tr-rsm two-rooms rsm 1 samples=1024
+    render tr-rsm15 two-rooms rsm 1 samples=1024 r_max=1.5
     render tr-rsmi two-rooms rsm-interleaved 1 samples=1024 interleave=4x4
     render tr-sii two-rooms sii 1 vpls=1024
     render tr-siii two-rooms sii 1 vpls=1024 interleave=4x4
+    render tr-siin two-rooms sii 1 vpls=1024 interleave=4x4 rescale=false
     entries=("path max_bounces=1 (reference)|$B1")
     [[ -n "$FULL" ]] && entries+=("path, all bounces|$FULL")
     for entry in "${entries[@]}" "direct|$OUT/tr-direct.exr" \
-        "rsm brute force (rsm_size 128)|$OUT/tr-bruteforce.exr" "rsm 1024|$OUT/tr-rsm.exr" \
-        "rsm-interleaved 4x4 1024|$OUT/tr-rsmi.exr" "sii 1024|$OUT/tr-sii.exr" "sii 4x4 1024|$OUT/tr-siii.exr"; do
+        "rsm brute force (rsm_size 128): no indirect occlusion|$OUT/tr-bruteforce.exr" "rsm 1024|$OUT/tr-rsm.exr" \
+        "rsm 1024, r_max=1.5|$OUT/tr-rsm15.exr" "rsm-interleaved 4x4 1024|$OUT/tr-rsmi.exr" "sii 1024|$OUT/tr-sii.exr" \
+        "sii 4x4 1024|$OUT/tr-siii.exr" "sii 4x4 1024 rescale=false|$OUT/tr-siin.exr"; do
         label=${entry%%|*}
         img=${entry#*|}
-        python3 - "$label" "$(cmp_json "$B1" "$img" --region 0,200,256,56)" "$(cmp_json "$B1" "$img" --region 0,0,100,200)" <<'PY'
+        row="| $label |"
+        for r in "${REGIONS[@]}"; do
+            row+=" $(cmp_json "$B1" "$img" --region "$r" | python3 -c '
 import json, sys
-a, b = json.loads(sys.argv[2])["region"], json.loads(sys.argv[3])["region"]
-def r(x, y):
-    return "%.2f" % (x / y) if y > 0 else "-"
-print("| %s | %.5f | %s | %.5f | %s |" % (sys.argv[1], a["test_luminance"], r(a["test_luminance"], a["reference_luminance"]),
-      b["test_luminance"], r(b["test_luminance"], b["reference_luminance"])))
-PY
+g = json.load(sys.stdin)["region"]
+t, r = g["test_luminance"], g["reference_luminance"]
+print("%.5f (%s)" % (t, "%.2f" % (t / r) if r > 0 else "-"))') |"
+        done
+        echo "$row"
     done
     echo
 fi
