@@ -30,17 +30,23 @@ fn gather_sampled(s: GSurface, subset: u32) -> vec3f {
         if light.shadow_layer < 0 {
             continue;
         }
-        let proj = rsm_project(light, s.position);
-        let size = rsm_views[proj.layer].size;
-        for (var k = first; k < last; k++) {
-            let smp = samples[k];
-            let uv = proj.uv + smp.xy;
-            if any(uv < vec2f(0.0)) || any(uv >= vec2f(1.0)) {
-                continue;
-            }
-            let p = load_pixel_light(vec2i(uv * size), proj.layer);
-            if p.valid {
-                sum += pixel_light_radiance(s, p) * smp.z;
+        // A point light's cube: one disc on each of the six faces (the light of a face the point does not
+        // project into still reaches it).
+        let faces = select(1, 6, light.kind == LIGHT_POINT);
+        for (var f = 0; f < faces; f++) {
+            let layer = light.shadow_layer + f;
+            let centre = rsm_project_layer(layer, s.position);
+            let size = rsm_views[layer].size;
+            for (var k = first; k < last; k++) {
+                let smp = samples[k];
+                let uv = centre + smp.xy;
+                if any(uv < vec2f(0.0)) || any(uv >= vec2f(1.0)) {
+                    continue;
+                }
+                let p = load_pixel_light(vec2i(uv * size), layer);
+                if p.valid {
+                    sum += pixel_light_radiance(s, p) * smp.z;
+                }
             }
         }
     }

@@ -42,7 +42,8 @@ const SAMPLES: ParamSpec = ParamSpec {
     name: "samples",
     kind: ParamKind::Int { min: 1, max: 16384 },
     default: "256",
-    doc: "RSM samples per pixel and light (interleaved: split over the N·M sub-buffers)",
+    doc: "RSM samples per pixel and light, per cube face for point lights (interleaved: split over the N·M \
+          sub-buffers)",
 };
 const R_MAX: ParamSpec = ParamSpec {
     name: "r_max",

@@ -45,27 +45,14 @@ fn pixel_light_radiance(s: GSurface, p: PixelLight) -> vec3f {
     return brdf_eval(s.material, s.normal, s.view, l) * e;
 }
 
-// Where x falls in a light's RSM: the centre of its sampling disc (uv in [0,1]²) and the layer (cube face
-// for point lights). Points outside a spot or directional view are clamped to the map's edge, and points
-// behind the view plane get the map's centre: the paper's projection is only defined inside the frustum,
-// and the light of such points still comes from the whole map.
-struct RsmProjection {
-    uv: vec2f,
-    layer: i32,
-}
-
-fn rsm_project(light: Light, x: vec3f) -> RsmProjection {
-    var r: RsmProjection;
-    r.layer = light.shadow_layer;
-    if light.kind == LIGHT_POINT {
-        r.layer += cube_face(x - light.position);
-    }
-    let clip = rsm_views[r.layer].view_proj * vec4f(x, 1.0);
+// Where x falls in RSM layer `layer`: the centre of its sampling disc (uv in [0,1]²). Points outside the
+// view are clamped to the map's edge, and points behind its view plane get the map's centre: the paper's
+// projection is only defined inside the frustum, and the light of such points still comes from the map.
+fn rsm_project_layer(layer: i32, x: vec3f) -> vec2f {
+    let clip = rsm_views[layer].view_proj * vec4f(x, 1.0);
     if clip.w <= 0.0 {
-        r.uv = vec2f(0.5);
-        return r;
+        return vec2f(0.5);
     }
     let ndc = clip.xy / clip.w;
-    r.uv = clamp(vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), vec2f(0.0), vec2f(1.0));
-    return r;
+    return clamp(vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), vec2f(0.0), vec2f(1.0));
 }
