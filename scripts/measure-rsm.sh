@@ -4,7 +4,8 @@
 #      methods' own converged value (brute-force gather of every RSM texel: no indirect occlusion);
 #   2. the thesis's timing sweep as ratios interleaved / non-interleaved, for gather and for splatting;
 #   3. light reaching the dark room of two-rooms, per technique and in the references.
-# Usage: scripts/measure-rsm.sh [section...]   (sections: errors timing tworooms; default: all)
+#   4. (pointlights) cube RSMs: bumpy-glossy's three point lights, against the brute-force gather.
+# Usage: scripts/measure-rsm.sh [section...]   (sections: errors pointlights timing tworooms; default: all)
 # Environment: RTGI (binary, default target/release/rtgi), REF_DIR (256², 1024-spp references named
 # cornell-spot-b1, two-rooms-b1, two-rooms-full .exr; default /work/refs; missing ones are rendered once with
 # `rtgi reference` into $OUT/refs: slow), OUT (scratch, default target/measure-rsm).
@@ -17,7 +18,7 @@ RTGI=${RTGI:-target/release/rtgi}
 OUT=${OUT:-target/measure-rsm}
 REF_DIR=${REF_DIR:-/work/refs}
 mkdir -p "$OUT"
-SECTIONS=${*:-errors timing tworooms}
+SECTIONS=${*:-errors pointlights timing tworooms}
 FRAMES=${FRAMES:-4}
 
 ref() { # name scene bounces: $REF_DIR/name.exr, else rendered once into $OUT/refs
@@ -90,6 +91,42 @@ sii|vpls|interleave=2x2 rescale=false
 sii|vpls|interleave=4x4 rescale=false
 sii|vpls|interleave=8x8 rescale=false
 ROWS
+    echo
+fi
+
+if [[ " $SECTIONS " == *" pointlights "* ]]; then
+    echo "### Point lights (cube RSMs): bumpy-glossy 128², RSM 64² × 6 faces × 3 lights"
+    echo
+    echo "Against the brute-force gather of all 73,728 texels (the converged value; no path-traced one-bounce"
+    echo "reference of this scene was rendered): relMSE, and the mean luminance over the image as a ratio."
+    echo
+    "$RTGI" render --scene bumpy-glossy --technique rsm --size 128x128 --set brute_force=true --set downsample=1 \
+        --set rsm_size=64 --out "$OUT/pl-bf.exr" >/dev/null 2>&1
+    "$RTGI" render --scene bumpy-glossy --technique direct --size 128x128 --out "$OUT/pl-direct.exr" >/dev/null 2>&1
+    echo "| technique | 64 | 256 | 1024 |"
+    echo "|---|---|---|---|"
+    row="| direct |"
+    for n in 64 256 1024; do
+        row+=" $(cmp_json "$OUT/pl-bf.exr" "$OUT/pl-direct.exr" --region 0,0,128,128 | python3 -c '
+import json, sys
+m = json.load(sys.stdin)
+print("%.4f (%.3f)" % (m["rel_mse"], m["region"]["test_luminance"] / m["region"]["reference_luminance"]))') |"
+    done
+    echo "$row"
+    for t in "rsm|samples" "sii|vpls"; do
+        technique=${t%%|*}
+        key=${t#*|}
+        row="| $technique |"
+        for n in 64 256 1024; do
+            "$RTGI" render --scene bumpy-glossy --technique "$technique" --size 128x128 --set rsm_size=64 \
+                --set "$key=$n" --out "$OUT/pl-$technique-$n.exr" >/dev/null 2>&1
+            row+=" $(cmp_json "$OUT/pl-bf.exr" "$OUT/pl-$technique-$n.exr" --region 0,0,128,128 | python3 -c '
+import json, sys
+m = json.load(sys.stdin)
+print("%.4f (%.3f)" % (m["rel_mse"], m["region"]["test_luminance"] / m["region"]["reference_luminance"]))') |"
+        done
+        echo "$row"
+    done
     echo
 fi
 
