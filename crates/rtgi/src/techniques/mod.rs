@@ -8,6 +8,7 @@
 pub mod compute;
 pub mod direct;
 pub mod discontinuity;
+pub mod igi;
 pub mod path;
 
 use std::collections::BTreeMap;
@@ -66,7 +67,7 @@ pub struct TechniqueInfo {
 
 /// Every technique, in the order `rtgi list` prints them.
 pub fn registry() -> &'static [TechniqueInfo] {
-    &[direct::INFO, path::INFO]
+    &[direct::INFO, path::INFO, igi::INFO, igi::SH_INFO]
 }
 
 /// Finds a technique and validates `settings` against its parameters.
