@@ -7,15 +7,22 @@
 // adding to what earlier chunks stored (long per-invocation loops are unsafe on lavapipe).
 //
 // Bounded geometry term: when G = cos θ_x cos θ_vpl / d² exceeds G_MAX (> 0), the VPL's light is scaled
-// by G_MAX / G; the luminance of incident light kept and lost is written to `clamp_stats`.
+// by G_MAX / G; the luminance of incident light kept and lost is written to `clamp_stats`. With
+// COMPENSATE, one uniformly sampled hemisphere ray per pixel adds back the clamped part (Kollig & Keller
+// 2004, one level): if it hits y with G(x, y) > G_MAX, y's outgoing radiance towards x — its emission
+// (unless direct light comes from rasterisation) plus the same VPLs gathered at y — weighted by
+// 1 − G_MAX / G.
 
 #import common/frame.wgsl
 #import common/sh.wgsl
 #import common/color.wgsl
+#import common/random.wgsl
+#import common/sampling.wgsl
 
 @group(2) @binding(0) var<storage, read> vpls: array<Vpl>;
 @group(2) @binding(1) var<storage, read_write> accum: array<vec2u>;
-@group(2) @binding(2) var<storage, read_write> clamp_stats: array<vec2f>;
+// Per pixel: luminance of incident light kept, lost to clamping, and added back by compensation.
+@group(2) @binding(2) var<storage, read_write> clamp_stats: array<vec4f>;
 @group(2) @binding(3) var<uniform> chunk: Chunk;
 
 struct Chunk {
@@ -29,6 +36,34 @@ fn ray_origin(s: GSurface) -> vec3f {
     return s.position + s.geometric_normal * (1e-4 * max(1.0, s.distance));
 }
 
+// Radiance leaving the surface hit `y` towards -dir from the VPLs [first, last), clamped like the
+// primary gather, plus y's emission when `with_emission`.
+fn outgoing_from_vpls(y: SurfaceHit, dir: vec3f, first: u32, last: u32, with_emission: bool) -> vec3f {
+    var l = select(vec3f(0.0), y.material.emission, with_emission);
+    let origin = vpl_offset(y.position, y.geometric_normal);
+    for (var k = first; k < last; k++) {
+        let v = vpls[k];
+        if v.kind == VPL_EMPTY {
+            continue;
+        }
+        let inc = vpl_incidence(v, y.position);
+        let cos_y = dot(y.normal, inc.direction);
+        if max3(inc.weight) <= 0.0 || cos_y <= 0.0 || dot(y.geometric_normal, inc.direction) <= 0.0 {
+            continue;
+        }
+        var w = inc.weight;
+        let g = cos_y * inc.geometry;
+        if g > G_MAX {
+            w *= G_MAX / g;
+        }
+        if trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)) {
+            continue;
+        }
+        l += brdf_eval(y.material, y.normal, -dir, inc.direction) * w * cos_y;
+    }
+    return l;
+}
+
 @compute @workgroup_size(TILE, TILE)
 fn main(@builtin(global_invocation_id) id: vec3u) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
@@ -40,6 +75,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     var data: array<vec4f, VEC4S>;
     var kept = 0.0;
     var lost = 0.0;
+    var compensated = 0.0;
     if s.valid {
         let set_index = (id.x % INTERLEAVE_X) + INTERLEAVE_X * (id.y % INTERLEAVE_Y);
         let first = set_index * SLOTS_PER_SET + chunk.begin;
@@ -80,6 +116,31 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
                 radiance += brdf_eval(s.material, s.normal, s.view, inc.direction) * w * cos_x;
             }
         }
+        if COMPENSATE && G_MAX > 0.0 {
+            // The same direction in every chunk: the chunks' partial sums add up to one estimate.
+            var rng = rng_new(id.xy, frame.frame_index, frame.seed ^ 0x51ed270bu);
+            let dir = local_to_world(sample_cone(rng_next2(&rng), 0.0), s.geometric_normal);
+            let cos_x = max(dot(s.normal, dir), 0.0);
+            let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
+            if hit_found(hit) {
+                let y = surface_at(hit.triangle, hit.u, hit.v, dir);
+                let g = cos_x * abs(dot(y.geometric_normal, dir)) / max(hit.t * hit.t, 1e-12);
+                if g > G_MAX {
+                    let with_emission = !DIRECT_RASTER && chunk.begin == 0u;
+                    // Uniform hemisphere: pdf 1 / 2π.
+                    let li = outgoing_from_vpls(y, dir, first, last, with_emission) * ((1.0 - G_MAX / g) * TWO_PI);
+                    compensated += luminance(li) * cos_x;
+                    if SH {
+                        let yd = sh9_basis(dir);
+                        for (var i = 0u; i < 9u; i++) {
+                            sh[i] += li * yd[i];
+                        }
+                    } else {
+                        radiance += brdf_eval(s.material, s.normal, s.view, dir) * li * cos_x;
+                    }
+                }
+            }
+        }
         if SH {
             for (var i = 0u; i < 9u; i++) {
                 for (var c = 0u; c < 3u; c++) {
@@ -98,9 +159,10 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         let previous = clamp_stats[pixel];
         kept += previous.x;
         lost += previous.y;
+        compensated += previous.z;
     }
     for (var k = 0u; k < VEC4S; k++) {
         accum[base + k] = pack_half4(data[k]);
     }
-    clamp_stats[pixel] = vec2f(kept, lost);
+    clamp_stats[pixel] = vec4f(kept, lost, compensated, 0.0);
 }

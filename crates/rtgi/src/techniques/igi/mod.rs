@@ -75,6 +75,12 @@ macro_rules! igi_params {
                 doc: "bound on the geometry term cos·cos/d² (1/m²) of VPLs on surfaces; 0 = unbounded",
             },
             ParamSpec {
+                name: "bias_compensation",
+                kind: ParamKind::Bool,
+                default: "false",
+                doc: "add back the light removed by g_max with one hemisphere ray per pixel (Kollig & Keller 2004)",
+            },
+            ParamSpec {
                 name: "filter",
                 kind: ParamKind::Bool,
                 default: "true",
@@ -91,7 +97,7 @@ macro_rules! igi_params {
     };
 }
 
-const IGI_PARAMS: [ParamSpec; 16] = igi_params!(
+const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
     ParamSpec {
         name: "filter_normals",
         kind: ParamKind::Bool,
@@ -106,7 +112,7 @@ const IGI_PARAMS: [ParamSpec; 16] = igi_params!(
     },
 );
 
-const IGI_SH_PARAMS: [ParamSpec; 14] = igi_params!();
+const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!();
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "igi",
@@ -441,7 +447,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     ctx.check_storage_size("the per-pixel VPL accumulation buffer", packed)?;
     let accum = compute::storage_buffer(ctx, "igi accumulation", packed);
     let filtered = compute::storage_buffer(ctx, "igi filtered", packed);
-    let clamp_stats = compute::storage_buffer(ctx, "igi clamp stats", u64::from(width * height) * 8);
+    let clamp_stats = compute::storage_buffer(ctx, "igi clamp stats", u64::from(width * height) * 16);
     let chunks = slots_per_set.div_ceil(CHUNK);
     let stride = ctx.limits().min_uniform_buffer_offset_alignment.max(16);
     let mut slots = vec![0u8; (stride * chunks) as usize];
@@ -492,7 +498,9 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         ctx,
         "igi gather",
         &format!("{VPL_WGSL}\n{}", include_str!("gather.wgsl")),
-        gather_defines(variant, ix, iy, slots_per_set, p.float("g_max") as f32),
+        gather_defines(variant, ix, iy, slots_per_set, p.float("g_max") as f32)
+            .bool("COMPENSATE", p.bool("bias_compensation"))
+            .bool("DIRECT_RASTER", direct_raster),
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &gather_layout],
     )?;
@@ -560,7 +568,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     let data_bytes = f64::from(vec4s * 8);
     counters.insert("accumulation_bytes_per_pixel".into(), data_bytes);
     counters.insert("filtered_bytes_per_pixel".into(), if filter.is_some() { data_bytes } else { 0.0 });
-    counters.insert("clamp_stats_bytes_per_pixel".into(), 8.0);
+    counters.insert("clamp_stats_bytes_per_pixel".into(), 16.0);
     counters.insert("direct_bytes_per_pixel".into(), if direct_raster { 16.0 } else { 0.0 });
     counters.insert("gbuffer_bytes_per_pixel".into(), f64::from(crate::frame::GBUFFER_BYTES_PER_PIXEL));
     counters.insert("output_bytes_per_pixel".into(), 16.0);
@@ -647,16 +655,21 @@ impl Technique for Igi {
 
     fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
         let bytes =
-            readback::read_buffer(ctx, &self.clamp_stats, 0, u64::from(self.width * self.height) * 8)?;
+            readback::read_buffer(ctx, &self.clamp_stats, 0, u64::from(self.width * self.height) * 16)?;
         let stats: &[f32] = bytemuck::cast_slice(&bytes);
-        let (kept, lost) = stats
-            .chunks_exact(2)
-            .fold((0.0f64, 0.0f64), |(k, l), s| (k + f64::from(s[0]), l + f64::from(s[1])));
+        let mut sums = [0.0f64; 3];
+        for s in stats.chunks_exact(4) {
+            for (sum, v) in sums.iter_mut().zip(s) {
+                *sum += f64::from(*v);
+            }
+        }
+        let [kept, lost, compensated] = sums;
+        let fraction = |x: f64| if kept + lost > 0.0 { x / (kept + lost) } else { 0.0 };
         let mut c = self.counters.clone();
-        c.insert(
-            "clamped_energy_fraction".into(),
-            if kept + lost > 0.0 { lost / (kept + lost) } else { 0.0 },
-        );
+        // Of the last frame's incident light (luminance, all pixels): the share the bound removed, and
+        // the share bias compensation added back.
+        c.insert("clamped_energy_fraction".into(), fraction(lost));
+        c.insert("compensated_energy_fraction".into(), fraction(compensated));
         c.insert("sh".into(), if self.variant == Variant::Sh { 1.0 } else { 0.0 });
         Ok(c)
     }

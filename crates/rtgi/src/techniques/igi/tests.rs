@@ -56,7 +56,10 @@ fn shaders_validate() {
         validate(
             "igi gather",
             &with_vpl(include_str!("gather.wgsl")),
-            &gather_defines(variant, 4, 4, 64, 10.0).u32("TILE", 8),
+            &gather_defines(variant, 4, 4, 64, 10.0)
+                .u32("TILE", 8)
+                .bool("COMPENSATE", true)
+                .bool("DIRECT_RASTER", false),
         );
         for raster in [false, true] {
             validate("igi shade", include_str!("shade.wgsl"), &shade_defines(variant, raster).u32("TILE", 8));
