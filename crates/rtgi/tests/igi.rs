@@ -90,6 +90,21 @@ fn furnace_energy_is_the_truncated_neumann_series() {
 
 const MAX_MEDIAN_DEVIATION: f64 = 0.045;
 
+/// Without interleaving, 1024 VPLs are gathered in four dispatches of 256 (chunks add up in the
+/// half-float accumulation buffer): the furnace's energy must survive that.
+#[test]
+fn chunked_gather_keeps_the_energy() {
+    let ctx = ctx();
+    let expected = 0.5 * (1.0 - 0.5f64.powi(10)) / 0.5;
+    for technique in ["igi", "igi-sh"] {
+        let settings = [("vpls", "1024"), ("interleave", "1x1")];
+        let out = run(&ctx, "furnace:albedo=0.5,emission=0.5", technique, &settings, 32);
+        let m = mean(&out.image);
+        eprintln!("{technique} 1x1, 1024 VPLs: mean {m:.5} (exact {expected:.5})");
+        assert!((m - expected).abs() < 0.02 * expected, "{technique}: mean {m} != {expected}");
+    }
+}
+
 /// With `depth=0` and direct light from VPLs, the only VPL is the spot light itself, with ray-traced
 /// visibility: unfiltered, `igi` is `direct`'s image (shadow-mapped) up to shadow-map edges. (`igi-sh`
 /// is not: order-2 SH of a single point light overestimates grazing light — the clamped cosine's
