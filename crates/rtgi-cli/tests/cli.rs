@@ -254,3 +254,12 @@ fn compare_rejects_mismatched_and_missing_images() {
     let line = expect_error(&rtgi_in(dir.path(), &["compare", "a.exr", "missing.exr"]));
     assert!(line.contains("missing.exr"), "{line}");
 }
+
+#[test]
+fn too_few_vpls_for_the_interleaving_pattern_is_an_error() {
+    let err = expect_error(&rtgi(&[
+        "render", "--technique", "igi", "--size", "8x8", "--set", "vpls=8", "--set", "interleave=4x4",
+        "--out", "unused.png",
+    ]));
+    assert!(err.contains("vpls=8") && err.contains("16 interleaving sets"), "{err}");
+}
