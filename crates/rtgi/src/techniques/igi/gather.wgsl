@@ -6,8 +6,10 @@
 // samples of the projection). One dispatch covers VPLs [chunk.begin, chunk.begin + CHUNK) of each set,
 // adding to what earlier chunks stored (long per-invocation loops are unsafe on lavapipe).
 //
-// Bounded geometry term: when G = cos θ_x cos θ_vpl / d² exceeds G_MAX (> 0), the VPL's light is scaled
-// by G_MAX / G; the luminance of incident light kept and lost is written to `clamp_stats`. With
+// Bounded geometry term: when the VPL's part of the geometry term, G = cos θ_vpl / d², exceeds
+// G_MAX (> 0), the VPL's light is scaled by G_MAX / G. (The receiver's cos θ_x is left out so that both
+// variants bound the same thing: the SH variant applies the receiver's cosine only after filtering, and a
+// VPL beside a receiver at a grazing angle would otherwise ring through the band-limited cosine.) the luminance of incident light kept and lost is written to `clamp_stats`. With
 // COMPENSATE, one uniformly sampled hemisphere ray per pixel adds back the clamped part (Kollig & Keller
 // 2004, one level): if it hits y with G(x, y) > G_MAX, y's outgoing radiance towards x — its emission
 // (unless direct light comes from rasterisation) plus the same VPLs gathered at y — weighted by
@@ -52,9 +54,8 @@ fn outgoing_from_vpls(y: SurfaceHit, dir: vec3f, first: u32, last: u32, with_emi
             continue;
         }
         var w = inc.weight;
-        let g = cos_y * inc.geometry;
-        if g > G_MAX {
-            w *= G_MAX / g;
+        if inc.geometry > G_MAX {
+            w *= G_MAX / inc.geometry;
         }
         if trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)) {
             continue;
@@ -97,9 +98,8 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             }
             let cos_x = max(dot(s.normal, inc.direction), 0.0);
             var w = inc.weight;
-            let g = cos_x * inc.geometry;
-            if G_MAX > 0.0 && g > G_MAX {
-                let kept_fraction = G_MAX / g;
+            if G_MAX > 0.0 && inc.geometry > G_MAX {
+                let kept_fraction = G_MAX / inc.geometry;
                 lost += luminance(w) * cos_x * (1.0 - kept_fraction);
                 w *= kept_fraction;
             }
@@ -124,7 +124,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
             if hit_found(hit) {
                 let y = surface_at(hit.triangle, hit.u, hit.v, dir);
-                let g = cos_x * abs(dot(y.geometric_normal, dir)) / max(hit.t * hit.t, 1e-12);
+                let g = abs(dot(y.geometric_normal, dir)) / max(hit.t * hit.t, 1e-12);
                 if g > G_MAX {
                     let with_emission = !DIRECT_RASTER && chunk.begin == 0u;
                     // Uniform hemisphere: pdf 1 / 2π.

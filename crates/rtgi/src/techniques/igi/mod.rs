@@ -72,7 +72,7 @@ macro_rules! igi_params {
                 name: "g_max",
                 kind: ParamKind::Float { min: 0.0, max: 1e9 },
                 default: "0",
-                doc: "bound on the geometry term cos·cos/d² (1/m²) of VPLs on surfaces; 0 = unbounded",
+                doc: "bound on the VPL's part cos θ_vpl/d² of the geometry term (1/m²), VPLs on surfaces only; 0 = unbounded",
             },
             ParamSpec {
                 name: "bias_compensation",
