@@ -70,6 +70,16 @@ enum Command {
         #[arg(long, value_name = "X,Y,W,H")]
         region: Option<String>,
     },
+    /// Tone-map an HDR image (.exr or .hdr) to PNG, as `render` does for .png outputs.
+    Tonemap {
+        /// Linear HDR image.
+        input: PathBuf,
+        /// Output .png.
+        output: PathBuf,
+        /// Exposure in stops applied before the tone curve.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+    },
     /// Write a built-in scene as binary glTF (.glb).
     ExportScene {
         /// Built-in scene, optionally with parameters: NAME or NAME:key=value,...
@@ -196,6 +206,16 @@ fn compare(
     Ok(())
 }
 
+fn tonemap(input: &Path, output: &Path, exposure: f32) -> anyhow::Result<()> {
+    if !output.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        bail!("{}: the output must be a .png file", output.display());
+    }
+    let image = rtgi::image::HdrImage::read(input)?;
+    create_parent(output)?;
+    image.write_png(output, &rtgi::image::ToneMap { exposure_ev: exposure })?;
+    Ok(())
+}
+
 fn main() -> ExitCode {
     // Mesa's implicit VK_LAYER_MESA_device_select probes Wayland and X11 to pick a default device, which
     // prints "XDG_RUNTIME_DIR is invalid" on headless machines. rtgi ranks adapters itself (discrete
@@ -213,6 +233,7 @@ fn main() -> ExitCode {
         Command::Reference { scene, size, spp, set, out } => {
             reference(&scene, &size, spp, &set, out.as_deref())
         }
+        Command::Tonemap { input, output, exposure } => tonemap(&input, &output, exposure),
         Command::Compare { reference, test, json, error_map, region } => {
             compare(&reference, &test, json, error_map.as_deref(), region.as_deref())
         }

@@ -273,3 +273,37 @@ fn compare_rejects_mismatched_and_missing_images() {
     let line = expect_error(&rtgi_in(dir.path(), &["compare", "a.exr", "missing.exr"]));
     assert!(line.contains("missing.exr"), "{line}");
 }
+
+#[test]
+fn too_few_vpls_for_the_interleaving_pattern_is_an_error() {
+    let err = expect_error(&rtgi(&[
+        "render",
+        "--technique",
+        "igi",
+        "--size",
+        "8x8",
+        "--set",
+        "vpls=8",
+        "--set",
+        "interleave=4x4",
+        "--out",
+        "unused.png",
+    ]));
+    assert!(err.contains("vpls=8") && err.contains("16 interleaving sets"), "{err}");
+}
+
+#[test]
+fn tonemap_writes_a_png_and_refuses_other_outputs() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    write_exr(dir.path(), "in.exr", 2, 1, vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+    let out = rtgi_in(dir.path(), &["tonemap", "in.exr", "out.png"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let png = rtgi::image::HdrImage::read(dir.path().join("out.png")).expect("png");
+    assert_eq!(&png.rgb[..3], &[0.0, 0.0, 0.0]);
+    // ACES fit of 1.0 is 0.80, sRGB-encoded and read back linear.
+    assert!((png.rgb[3] - 0.80).abs() < 0.01, "{:?}", png.rgb);
+    let err = expect_error(&rtgi_in(dir.path(), &["tonemap", "in.exr", "out.jpg"]));
+    assert!(err.contains("out.jpg"), "{err}");
+    let err = expect_error(&rtgi_in(dir.path(), &["tonemap", "missing.exr", "out.png"]));
+    assert!(err.contains("missing.exr"), "{err}");
+}

@@ -212,6 +212,9 @@ pub struct GpuScene {
     pub memory_bytes: u64,
     /// Non-fatal findings during upload (e.g. downsampled textures).
     pub warnings: Vec<String>,
+    /// ∫ luminance(L_env(ω)) dω over the sphere (W·m⁻²·sr⁻¹ · sr): the environment's weight when a
+    /// technique chooses among light sources by power.
+    pub environment_power: f32,
 }
 
 struct TextureArrays {
@@ -432,7 +435,7 @@ pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
         .collect()
 }
 
-fn luminance(c: Vec3) -> f32 {
+pub(crate) fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
@@ -743,6 +746,15 @@ impl GpuScene {
             + gpu_bvh.triangles.size()
             + textures.bytes
             + (env_texels.2.len() * 4) as u64;
+        let environment_power = match info.env_kind {
+            ENV_UNIFORM => luminance(Vec3::from(info.env_radiance)) * 4.0 * std::f32::consts::PI,
+            ENV_SKY | ENV_MAP => {
+                let (w, h, rgba) = (&env_texels.0, &env_texels.1, &env_texels.2);
+                let scale = if info.env_kind == ENV_MAP { info.env_intensity } else { 1.0 };
+                scale * equirect_integral(*w, *h, rgba)
+            }
+            _ => 0.0,
+        };
         Ok(GpuScene {
             info,
             vertex_buffer,
@@ -756,6 +768,7 @@ impl GpuScene {
             bvh_build_ms,
             memory_bytes,
             warnings,
+            environment_power,
         })
     }
 
@@ -804,7 +817,22 @@ pub fn environment_cdf(width: u32, height: u32, rgb: &[f32]) -> Vec<f32> {
     table
 }
 
-fn mean_srgb_luminance(t: &crate::scene::Texture) -> f32 {
+/// ∫ luminance dω of an equirectangular RGBA map (rows top to bottom), texel centres as the quadrature.
+fn equirect_integral(width: u32, height: u32, rgba: &[f32]) -> f32 {
+    let (w, h) = (width as usize, height as usize);
+    let texel_angle = (2.0 * std::f64::consts::PI / w as f64) * (std::f64::consts::PI / h as f64);
+    let mut sum = 0.0f64;
+    for y in 0..h {
+        let sin_theta = ((y as f64 + 0.5) / h as f64 * std::f64::consts::PI).sin();
+        for x in 0..w {
+            let i = (y * w + x) * 4;
+            sum += f64::from(luminance(Vec3::new(rgba[i], rgba[i + 1], rgba[i + 2])).max(0.0)) * sin_theta;
+        }
+    }
+    (sum * texel_angle) as f32
+}
+
+pub(crate) fn mean_srgb_luminance(t: &crate::scene::Texture) -> f32 {
     let decode = |c: u8| {
         let c = f32::from(c) / 255.0;
         if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }

@@ -8,6 +8,7 @@
 pub mod compute;
 pub mod direct;
 pub mod discontinuity;
+pub mod igi;
 pub mod path;
 pub mod rsm;
 
@@ -72,7 +73,15 @@ pub struct TechniqueInfo {
 
 /// Every technique, in the order `rtgi list` prints them.
 pub fn registry() -> &'static [TechniqueInfo] {
-    &[direct::INFO, path::INFO, rsm::RSM_INFO, rsm::RSM_INTERLEAVED_INFO, rsm::SII_INFO]
+    &[
+        direct::INFO,
+        path::INFO,
+        igi::INFO,
+        igi::SH_INFO,
+        rsm::RSM_INFO,
+        rsm::RSM_INTERLEAVED_INFO,
+        rsm::SII_INFO,
+    ]
 }
 
 /// Finds a technique and validates `settings` against its parameters.

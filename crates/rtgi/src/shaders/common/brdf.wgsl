@@ -137,3 +137,27 @@ fn brdf_sample(m: SurfaceMaterial, n: vec3f, v: vec3f, u: vec3f) -> BrdfSample {
     }
     return s;
 }
+
+// Approximate directional albedo of the BRDF's two lobes seen from n·v (Schlick Fresnel at n·v; GGX's
+// multiple-scattering loss ignored): the BRDF factor that IGI demodulates by, and the lobe weights of
+// its SH shading.
+struct LobeWeights {
+    diffuse: vec3f,
+    specular: vec3f,
+}
+
+fn brdf_lobe_weights(m: SurfaceMaterial, n_dot_v: f32) -> LobeWeights {
+    var w: LobeWeights;
+    let f = schlick_weight(saturate(n_dot_v));
+    let dielectric_spec = m.specular * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * f);
+    w.diffuse = m.base_color * (1.0 - dielectric_spec) * (1.0 - m.metallic);
+    w.specular = mix(vec3f(dielectric_spec), m.base_color + (1.0 - m.base_color) * f, m.metallic);
+    return w;
+}
+
+// Exponent of the normalised Phong lobe about the mirror direction equivalent to GGX roughness
+// (Walter et al. 2007's α_p = 2/α² − 2, the Beckmann/Phong correspondence, applied to GGX's α).
+fn phong_exponent(roughness: f32) -> f32 {
+    let a = ggx_alpha(roughness);
+    return max(2.0 / (a * a) - 2.0, 0.0);
+}

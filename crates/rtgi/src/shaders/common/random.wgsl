@@ -65,3 +65,29 @@ fn radical_inverse_3(index: u32) -> f32 {
 fn cp_rotate(p: vec2f, offset: vec2f) -> vec2f {
     return fract(p + offset);
 }
+
+// The first 32 primes: the bases of the Halton sequence's dimensions.
+const HALTON_PRIMES = array<u32, 32>(
+    2u, 3u, 5u, 7u, 11u, 13u, 17u, 19u, 23u, 29u, 31u, 37u, 41u, 43u, 47u, 53u,
+    59u, 61u, 67u, 71u, 73u, 79u, 83u, 89u, 97u, 101u, 103u, 107u, 109u, 113u, 127u, 131u,
+);
+
+fn radical_inverse(base: u32, index: u32) -> f32 {
+    let inv_base = 1.0 / f32(base);
+    var i = index;
+    var f = inv_base;
+    var r = 0.0;
+    while i > 0u {
+        r += f * f32(i % base);
+        i /= base;
+        f *= inv_base;
+    }
+    return min(r, 0.99999994);
+}
+
+// Dimension `dim` (< 32) of Halton point `index`, Cranley-Patterson rotated by `offset`: with offsets
+// drawn per point set, sets are independent of each other yet each stays low-discrepancy.
+fn halton(index: u32, dim: u32, offset: f32) -> f32 {
+    var primes = HALTON_PRIMES;
+    return fract(radical_inverse(primes[dim % 32u], index) + offset);
+}

@@ -92,7 +92,123 @@ fn defines(vec4s: u32, s: &FilterSettings) -> Defines {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::FrameResources;
+    use crate::gpu::{GpuContext, GpuOptions, GpuScene, readback};
+    use crate::params::ParamValues;
     use crate::shaders::validate;
+    use wgpu::util::DeviceExt;
+
+    fn half(x: f32) -> u16 {
+        half::f16::from_f32(x).to_bits()
+    }
+
+    fn unhalf(bits: u16) -> f32 {
+        half::f16::from_bits(bits).to_f32()
+    }
+
+    /// On the Cornell box's G-buffer, filters per pixel (material index, interleaving set of a 4×4
+    /// pattern, 1, 0): the material channel must come out unchanged everywhere (the filter never mixes
+    /// materials), and wherever the whole 4×4 window lies on one wall the set channel must be the mean
+    /// of all 16 sets, 7.5 (each set seen exactly once).
+    #[test]
+    fn filter_averages_one_cell_and_never_mixes_materials() {
+        let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+        let scene = crate::scene::builtin::build("cornell", &[]).expect("cornell");
+        let gpu_scene = GpuScene::new(&ctx, &scene).expect("scene upload");
+        let (w, h) = (48u32, 48u32);
+        let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, None).expect("frame");
+        let mut profiler = Profiler::new(&ctx);
+        frame.begin_frame(&ctx, 0, 0);
+        frame.render_inputs(&ctx, &gpu_scene, &mut profiler).expect("gbuffer");
+        let material: Vec<u32> = bytemuck::cast_slice::<u8, u32>(
+            &readback::read_texture(&ctx, &frame.gbuffer.material, 8).expect("readback"),
+        )
+        .chunks_exact(2)
+        .map(|m| m[0])
+        .collect();
+        let distance: Vec<f32> = bytemuck::cast_slice(
+            &readback::read_texture(&ctx, &frame.gbuffer.distance, 4).expect("readback"),
+        )
+        .to_vec();
+        let normal: Vec<[f32; 4]> = bytemuck::cast_slice::<u8, u16>(
+            &readback::read_texture(&ctx, &frame.gbuffer.normal, 8).expect("readback"),
+        )
+        .chunks_exact(4)
+        .map(|n| [unhalf(n[0]), unhalf(n[1]), unhalf(n[2]), unhalf(n[3])])
+        .collect();
+        let set = |x: u32, y: u32| (x % 4 + 4 * (y % 4)) as f32;
+        let mut input: Vec<u16> = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                input.extend([
+                    half(material[(y * w + x) as usize] as f32),
+                    half(set(x, y)),
+                    half(1.0),
+                    half(0.0),
+                ]);
+            }
+        }
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let input_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("filter input"),
+            contents: bytemuck::cast_slice(&input),
+            usage,
+        });
+        let output_buffer =
+            super::compute::storage_buffer(&ctx, "filter output", packed_buffer_bytes(w, h, 1));
+        let output_texture =
+            super::compute::storage_texture(&ctx, "unused", 1, 1, crate::frame::OUTPUT_FORMAT);
+        let params = ParamValues::default();
+        let setup = TechniqueSetup {
+            ctx: &ctx,
+            scene: &scene,
+            gpu_scene: &gpu_scene,
+            frame: &frame,
+            params: &params,
+            output: &output_texture,
+        };
+        let settings =
+            FilterSettings { window: [4, 4], depth_threshold: 0.02, normal_cos: None, material_test: true };
+        let filter =
+            DiscontinuityFilter::new(&setup, &input_buffer, &output_buffer, 1, &settings).expect("filter");
+        let fc = FrameContext { ctx: &ctx, gpu_scene: &gpu_scene, frame: &frame, frame_index: 0 };
+        filter.render(&fc, &mut profiler, "filter").expect("filter pass");
+        let out: Vec<f32> = bytemuck::cast_slice::<u8, u16>(
+            &readback::read_buffer(&ctx, &output_buffer, 0, packed_buffer_bytes(w, h, 1)).expect("readback"),
+        )
+        .iter()
+        .map(|&b| unhalf(b))
+        .collect();
+        let mut interior = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                if distance[i] <= 0.0 {
+                    continue;
+                }
+                assert_eq!(out[i * 4], material[i] as f32, "pixel ({x}, {y}) mixed materials");
+                assert_eq!(out[i * 4 + 2], 1.0, "pixel ({x}, {y}): weights do not sum to one");
+                // Is the whole window (x−1..x+2, y−1..y+2) on the centre's wall?
+                let on_wall = (0..16).all(|k| {
+                    let (qx, qy) = (x as i32 - 1 + k % 4, y as i32 - 1 + k / 4);
+                    if qx < 0 || qy < 0 || qx >= w as i32 || qy >= h as i32 {
+                        return false;
+                    }
+                    let q = (qy as u32 * w + qx as u32) as usize;
+                    material[q] == material[i]
+                        && (normal[q][2] - normal[i][2]).abs() < 1e-3
+                        && (normal[q][3] - normal[i][3]).abs() < 1e-3
+                        && (distance[q] - distance[i]).abs() < 0.05 * distance[i]
+                });
+                if on_wall {
+                    interior += 1;
+                    assert_eq!(out[i * 4 + 1], 7.5, "pixel ({x}, {y}) did not see every set once");
+                }
+            }
+        }
+        // 477 of 2304 pixels measured (the side walls are seen at grazing angles).
+        assert!(interior > (w * h / 6) as usize, "only {interior} pixels had a full window on one wall");
+    }
 
     #[test]
     fn shader_validates() {
