@@ -34,7 +34,7 @@ pub use map::{RsmView, reader_source};
 
 const RSM_SIZE: ParamSpec = ParamSpec {
     name: "rsm_size",
-    kind: ParamKind::Int { min: 16, max: 4096 },
+    kind: ParamKind::Int { min: 16, max: 2048 },
     default: "256",
     doc: "edge of each RSM layer in texels (point lights use six layers)",
 };

@@ -96,7 +96,16 @@ impl Splat {
         let scale = if rescale { layout.subsets() as f32 } else { 1.0 };
 
         // VPL selection.
-        let cdf = compute::storage_buffer(ctx, "rsm luminance cdf", u64::from(rsm.texels().max(1)) * 4);
+        let cdf_bytes = u64::from(rsm.texels().max(1)) * 4;
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        if cdf_bytes > limit {
+            return Err(RenderError::InvalidSettings(format!(
+                "the flux CDF of {} RSM texels needs {cdf_bytes} bytes, over the device's \
+                 max_storage_buffer_binding_size of {limit}: lower rsm_size",
+                rsm.texels()
+            )));
+        }
+        let cdf = compute::storage_buffer(ctx, "rsm luminance cdf", cdf_bytes);
         let vpl_buffer = compute::storage_buffer(ctx, "vpls", u64::from(count) * size_of::<GpuVpl>() as u64);
         let params_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("vpl params"),
