@@ -22,25 +22,26 @@ REFS = Path(os.environ.get("REFS", "target/measure/refs"))
 DOC = ROOT / "docs/measurements"
 IMAGES = DOC / "igi"
 SIZE = "256x256"
+BUMPY_SIZE = "128x128"
 
 
 def sh(*args):
     return subprocess.run([str(a) for a in args], check=True, capture_output=True, text=True).stdout
 
 
-def reference(name, scene, spp, *settings):
+def reference(name, scene, spp, *settings, size=SIZE):
     path = REFS / f"{name}.exr"
     if not path.exists():
         extra = [x for s in settings for x in ("--set", s)]
         print(f"reference {name} ({spp} spp)...", flush=True)
-        sh(RTGI, "reference", "--scene", scene, "--size", SIZE, "--spp", spp, *extra, "--out", path)
+        sh(RTGI, "reference", "--scene", scene, "--size", size, "--spp", spp, *extra, "--out", path)
     return path
 
 
-def render(name, scene, technique, *settings, frames=1):
+def render(name, scene, technique, *settings, frames=1, size=SIZE):
     exr, stats = OUT / f"{name}.exr", OUT / f"{name}.json"
     extra = [x for s in settings for x in ("--set", s)]
-    sh(RTGI, "render", "--scene", scene, "--technique", technique, "--size", SIZE, "--frames", frames,
+    sh(RTGI, "render", "--scene", scene, "--technique", technique, "--size", size, "--frames", frames,
        *extra, "--out", exr, "--stats", stats)
     return exr, json.loads(stats.read_text())
 
@@ -64,10 +65,11 @@ def main():
     for d in (OUT, REFS, IMAGES):
         d.mkdir(parents=True, exist_ok=True)
     cornell = reference("cornell-full", "cornell", 1024)
-    bumpy = reference("bumpy-glossy-full", "bumpy-glossy", 1024)
+    # bumpy-glossy's closed bright room makes paths long (28 rays per sample): 128x128 at 512 spp.
+    bumpy = reference("bumpy-glossy-full-128", "bumpy-glossy", 512, size=BUMPY_SIZE)
     lines = ["# igi and igi-sh: measurements", "",
              f"Reproduce with `python3 scripts/measure-igi.py` (renders {SIZE}, one frame each: fully "
-             "dynamic, nothing carried between frames). References: `path`, 1024 spp, full GI. "
+             "dynamic, nothing carried between frames). References: `path`, full GI (cornell 1024 spp, bumpy-glossy 512 spp). "
              f"Adapter: {render('probe', 'cornell', 'igi', 'vpls=64')[1]['adapter']['name']}.", ""]
 
     # 1. Convergence on cornell.
@@ -96,7 +98,7 @@ def main():
     lines.append("")
 
     # 3. The paper's claim on bumpy-glossy.
-    lines += ["## Normal-mapped glossy surfaces (bumpy-glossy, 1024 VPLs, interleave 4x4)", "",
+    lines += [f"## Normal-mapped glossy surfaces (bumpy-glossy {BUMPY_SIZE}, 1024 VPLs, interleave 4x4)", "",
               "Images (`.png`, tone-mapped) and FLIP error maps (`-flip.png`) in `docs/measurements/igi/`; "
               "`bumpy-reference.png` is the reference.", "",
               "| direct light | g_max | variant | FLIP | relMSE |", "|---|---|---|---|---|"]
@@ -109,7 +111,7 @@ def main():
             for label, technique, settings in variants:
                 tag = f"bumpy-{direct}-g{g_max}-{label.replace(', ', '-').replace(' ', '-')}"
                 exr, _ = render(tag, "bumpy-glossy", technique, "vpls=1024", f"direct={direct}",
-                                f"g_max={g_max}", *settings)
+                                f"g_max={g_max}", *settings, size=BUMPY_SIZE)
                 m = compare(bumpy, exr, IMAGES / f"{tag}-flip.png")
                 sh(RTGI, "tonemap", exr, IMAGES / f"{tag}.png")
                 lines.append(f"| {direct} | {g_max} | {label} | {m['flip']:.4f} | {m['rel_mse']:.5f} |")

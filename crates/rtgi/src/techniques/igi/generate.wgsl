@@ -37,7 +37,9 @@ struct VplGeneration {
     slots_per_set: u32,
     max_depth: u32,
     entry_count: u32,
-    _pad0: u32,
+    // Analytic lights with a VPL of their own in the first slots of every set (0 when direct light is
+    // not carried by VPLs).
+    fixed_lights: u32,
     _pad1: u32,
     _pad2: u32,
     // Bounding sphere of the scene (centre, radius): directional sources emit from a disc covering it.
@@ -128,13 +130,36 @@ fn surface_vpl(s: SurfaceHit, incoming: vec3f, flux: vec3f) -> Vpl {
     return v;
 }
 
+// The exact VPL of analytic light k: the light itself.
+fn light_vpl(k: u32) -> Vpl {
+    let light = lights[k];
+    var v: Vpl;
+    if light.kind == LIGHT_DIRECTIONAL {
+        v.kind = VPL_DIRECTIONAL;
+        v.normal = -light.direction;
+        v.flux = light.intensity;
+    } else {
+        v.kind = VPL_LIGHT;
+        v.light = k;
+        v.flux = vec3f(1.0, 0.0, 0.0);
+    }
+    return v;
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u) {
-    if id.x >= gen.sets * gen.paths {
+    let per_set = max(gen.paths, gen.fixed_lights);
+    if id.x >= gen.sets * per_set {
         return;
     }
-    let set_index = id.x / gen.paths;
-    let i = id.x % gen.paths;
+    let set_index = id.x / per_set;
+    let i = id.x % per_set;
+    if i < gen.fixed_lights {
+        vpls[set_index * gen.slots_per_set + i] = light_vpl(i);
+    }
+    if i >= gen.paths {
+        return;
+    }
     let entry = light_entries[find_entry(qmc(set_index, i, 0u))];
     let scale = 1.0 / (entry.probability * f32(gen.paths));
     let u1 = vec2f(qmc(set_index, i, 1u), qmc(set_index, i, 2u));
@@ -148,17 +173,13 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     switch entry.kind {
         case ENTRY_LIGHT: {
             let light = lights[entry.index];
+            // Vertex 0 stays empty: the light has its own exact VPL among the fixed slots.
+            first.kind = VPL_EMPTY;
             if light.kind == LIGHT_DIRECTIONAL {
-                first.kind = VPL_DIRECTIONAL;
-                first.normal = -light.direction;
-                first.flux = light.intensity * scale;
                 origin = disc_origin(light.direction, u1);
                 dir = light.direction;
                 flux = light.intensity * (PI * gen.sphere.w * gen.sphere.w) * scale;
             } else {
-                first.kind = VPL_LIGHT;
-                first.light = entry.index;
-                first.flux = vec3f(scale, 0.0, 0.0);
                 origin = light.position;
                 if light.kind == LIGHT_SPOT {
                     dir = local_to_world(sample_cone(u1, light.cos_outer), light.direction);
@@ -216,7 +237,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             flux = first.flux * (PI * gen.sphere.w * gen.sphere.w);
         }
     }
-    if max3(flux) <= 0.0 && max3(first.flux) <= 0.0 {
+    if max3(flux) <= 0.0 && (first.kind == VPL_EMPTY || max3(first.flux) <= 0.0) {
         end_path(set_index, 0u, i);
         return;
     }

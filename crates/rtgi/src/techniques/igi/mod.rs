@@ -185,15 +185,23 @@ pub struct VplGeneration {
     pub slots_per_set: u32,
     pub max_depth: u32,
     pub entry_count: u32,
-    pub _pad: [u32; 3],
+    pub fixed_lights: u32,
+    pub _pad: [u32; 2],
     pub sphere: [f32; 4],
 }
 
-/// How one set's VPL slots are spent: `paths` light paths, `alive[j]` of them reaching vertex j
-/// (round(paths · ρ̄^j), instant radiosity's quasi-random roulette), vertex j's slots at `offset[j]`
-/// (`None` where vertex j is not stored: on the lights when direct light comes from rasterisation).
+/// How one set's VPL slots are spent: first `fixed` slots, one per analytic light, then `paths` light
+/// paths, `alive[j]` of them reaching vertex j (round(paths · ρ̄^j), instant radiosity's quasi-random
+/// roulette), vertex j's slots at `offset[j]` (`None` where vertex j is not stored: on the lights when
+/// direct light comes from rasterisation).
+///
+/// Analytic (point, spot, directional) lights get a slot of their own in every set when VPLs carry the
+/// direct light: every VPL instant radiosity would place on a point light is the light itself, so one
+/// exact VPL replaces them all and removes their sampling noise; paths still start from every light in
+/// proportion to power, and only their vertex 0 on emissive triangles and the environment is stored.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SetLayout {
+    pub fixed: u32,
     pub paths: u32,
     pub alive: Vec<u32>,
     pub offset: Vec<Option<u32>>,
@@ -201,25 +209,34 @@ pub struct SetLayout {
     pub used: u32,
 }
 
-/// The set layout with the most paths whose stored vertices fit in `slots`, or `None` when not even one
-/// path fits.
-pub fn set_layout(slots: u32, survival: f32, depth: u32, store_lights: bool) -> Option<SetLayout> {
+/// The set layout with the most paths whose stored vertices fit in `slots` after `fixed` light slots
+/// (vertex 0 stored only when `store_vertex0`), or `None` when neither a light nor a path fits.
+pub fn set_layout(
+    slots: u32,
+    survival: f32,
+    depth: u32,
+    fixed: u32,
+    store_vertex0: bool,
+) -> Option<SetLayout> {
+    if fixed > slots {
+        return None;
+    }
     let build = |paths: u32| {
         let alive: Vec<u32> = (0..=depth)
             .map(|j| (f64::from(paths) * f64::from(survival).powi(j as i32)).round() as u32)
             .map(|n| n.min(paths))
             .collect();
         let mut offset = Vec::with_capacity(alive.len());
-        let mut used = 0u32;
+        let mut used = fixed;
         for (j, &n) in alive.iter().enumerate() {
-            if j == 0 && !store_lights {
+            if j == 0 && !store_vertex0 {
                 offset.push(None);
             } else {
                 offset.push(Some(used));
                 used += n;
             }
         }
-        SetLayout { paths, alive, offset, used }
+        SetLayout { fixed, paths, alive, offset, used }
     };
     // `used` grows with `paths`, so search for the largest that fits.
     let (mut lo, mut hi) = (0u32, slots.max(1));
@@ -228,7 +245,7 @@ pub fn set_layout(slots: u32, survival: f32, depth: u32, store_lights: bool) -> 
         if build(mid).used <= slots { lo = mid } else { hi = mid - 1 }
     }
     let layout = build(lo);
-    (lo > 0 && layout.used > 0).then_some(layout)
+    (layout.used > 0 && (lo > 0 || fixed > 0)).then_some(layout)
 }
 
 /// Area-weighted mean albedo (luminance of the BRDF's directional albedo at normal incidence) of the
@@ -337,7 +354,12 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     let direct_raster = p.choice("direct") == "raster";
     let slots_per_set = vpls / sets;
     let survival = mean_albedo(setup.scene);
-    let layout = set_layout(slots_per_set, survival, depth, !direct_raster);
+    let analytic_lights = setup.gpu_scene.lights.len() as u32;
+    // Vertex 0 is stored for emissive triangles and the environment only (analytic lights have their
+    // fixed slots), and only when VPLs carry the direct light.
+    let sampled_sources = setup.gpu_scene.info.emissive_count > 0 || setup.gpu_scene.environment_power > 0.0;
+    let fixed = if direct_raster { 0 } else { analytic_lights };
+    let layout = set_layout(slots_per_set, survival, depth, fixed, !direct_raster && sampled_sources);
     let (width, height) = (setup.frame.width, setup.frame.height);
 
     let mut counters = BTreeMap::from([
@@ -349,6 +371,12 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         return Err(RenderError::InvalidSettings(format!(
             "{name}: vpls={vpls} gives no VPL to each of the {sets} interleaving sets ({ix}x{iy}); \
              use vpls >= {sets} or a smaller interleave"
+        )));
+    }
+    if !direct_raster && analytic_lights > slots_per_set {
+        return Err(RenderError::InvalidSettings(format!(
+            "{name}: with direct=vpl every interleaving set holds one VPL per analytic light ({analytic_lights}), \
+             but vpls={vpls} gives {slots_per_set} per set ({ix}x{iy}); raise vpls or use direct=raster"
         )));
     }
     if direct_raster && depth == 0 {
@@ -372,7 +400,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         setup.gpu_scene.environment_power,
         radius,
     );
-    let generate = match (&layout, entries.is_empty()) {
+    let generate = match (&layout, entries.is_empty() && analytic_lights == 0) {
         (Some(layout), false) => {
             counters.insert("paths_per_set".into(), f64::from(layout.paths));
             counters.insert("vpls_stored".into(), f64::from(layout.used * sets));
@@ -394,7 +422,8 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
                 slots_per_set,
                 max_depth: depth,
                 entry_count: entries.len() as u32,
-                _pad: [0; 3],
+                fixed_lights: layout.fixed,
+                _pad: [0; 2],
                 sphere: [centre.x, centre.y, centre.z, radius],
             };
             let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -431,7 +460,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
                 "main",
                 &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &group_layout],
             )?;
-            Some((pipeline, group, (sets * layout.paths).div_ceil(64)))
+            Some((pipeline, group, (sets * layout.paths.max(layout.fixed)).div_ceil(64)))
         }
         _ => {
             // No light, or too few slots for one path: every VPL stays empty (a black indirect term).

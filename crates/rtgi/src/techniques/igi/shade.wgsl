@@ -18,6 +18,10 @@ fn sh_reflected(s: GSurface, base: u32) -> vec3f {
         data[k] = unpack_half4(filtered[base + k]);
     }
     let n_dot_v = dot(s.normal, s.view);
+    if n_dot_v <= 0.0 {
+        // A shading normal facing away from the viewer reflects nothing (as brdf_eval has it).
+        return vec3f(0.0);
+    }
     let weights = brdf_lobe_weights(s.material, n_dot_v);
     let exponent = phong_exponent(s.material.roughness);
     let mirror = reflect(-s.view, s.normal);

@@ -49,6 +49,7 @@ fn shaders_validate() {
             ("slots_per_set", offset_of!(VplGeneration, slots_per_set)),
             ("max_depth", offset_of!(VplGeneration, max_depth)),
             ("entry_count", offset_of!(VplGeneration, entry_count)),
+            ("fixed_lights", offset_of!(VplGeneration, fixed_lights)),
             ("sphere", offset_of!(VplGeneration, sphere)),
         ],
     );
@@ -69,7 +70,7 @@ fn shaders_validate() {
 
 #[test]
 fn set_layout_fills_the_slots_with_geometrically_fewer_paths_per_vertex() {
-    let l = set_layout(64, 0.5, 8, true).expect("fits");
+    let l = set_layout(64, 0.5, 8, 0, true).expect("fits");
     assert!(l.used <= 64);
     // round(N·0.5^j), never more than N, stored from vertex 0.
     for (j, &n) in l.alive.iter().enumerate() {
@@ -83,12 +84,19 @@ fn set_layout_fills_the_slots_with_geometrically_fewer_paths_per_vertex() {
     assert_eq!(sum(l.paths), l.used);
     assert!(sum(l.paths + 1) > 64);
     // Without VPLs on the lights, vertex 0 takes no slots.
-    let r = set_layout(64, 0.5, 8, false).expect("fits");
+    let r = set_layout(64, 0.5, 8, 0, false).expect("fits");
     assert_eq!(r.offset[0], None);
     assert_eq!(r.offset[1], Some(0));
     assert!(r.paths > l.paths);
-    // Too few slots for a single path.
-    assert_eq!(set_layout(0, 0.5, 8, true), None);
+    // Analytic lights take the first slots.
+    let f = set_layout(64, 0.5, 8, 3, true).expect("fits");
+    assert_eq!((f.fixed, f.offset[0]), (3, Some(3)));
+    assert!(f.used <= 64 && f.paths < l.paths);
+    // Lights only; then not even that.
+    let only = set_layout(3, 0.5, 8, 3, false).expect("the lights fit");
+    assert_eq!((only.paths, only.used), (0, 3));
+    assert_eq!(set_layout(2, 0.5, 8, 3, false), None);
+    assert_eq!(set_layout(0, 0.5, 8, 0, true), None);
 }
 
 #[test]
