@@ -1,6 +1,6 @@
 // Deferred G-buffer: one draw of the whole scene. Layout of the targets: see common/frame.wgsl.
 
-#import common/scene.wgsl
+#import common/raster.wgsl
 
 struct Camera {
     view_proj: mat4x4f,
@@ -10,15 +10,6 @@ struct Camera {
 
 @group(1) @binding(0) var<uniform> camera: Camera;
 
-struct VertexOut {
-    @builtin(position) clip: vec4f,
-    @location(0) world: vec3f,
-    @location(1) normal: vec3f,
-    @location(2) tangent: vec4f,
-    @location(3) uv: vec2f,
-    @location(4) @interpolate(flat) material: u32,
-}
-
 @vertex
 fn vs_main(
     @location(0) position: vec3f,
@@ -26,16 +17,8 @@ fn vs_main(
     @location(2) normal_oct: u32,
     @location(3) tangent_oct: u32,
     @location(4) uv: vec2f,
-) -> VertexOut {
-    let v = Vertex(position, material_flags, normal_oct, tangent_oct, uv);
-    var out: VertexOut;
-    out.clip = camera.view_proj * vec4f(position, 1.0);
-    out.world = position;
-    out.normal = vertex_normal(v);
-    out.tangent = vertex_tangent(v);
-    out.uv = uv;
-    out.material = vertex_material(v);
-    return out;
+) -> SceneVertexOut {
+    return scene_vertex(camera.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
 }
 
 struct GBufferOut {
@@ -55,26 +38,18 @@ fn texture_lod(uv: vec2f) -> f32 {
 }
 
 @fragment
-fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> GBufferOut {
+fn fs_main(in: SceneVertexOut) -> GBufferOut {
     let m = materials[in.material];
     let lod = texture_lod(in.uv);
     let s = material_at(m, in.uv, lod);
     if m.alpha_cutoff >= 0.0 && s.alpha < m.alpha_cutoff {
         discard;
     }
-    var ng = normalize(cross(dpdx(in.world), dpdy(in.world)));
     let to_camera = camera.position - in.world;
-    if dot(ng, to_camera) < 0.0 {
-        ng = -ng;
-    }
-    var n = normalize(in.normal);
-    if dot(n, ng) < 0.0 {
-        n = -n;
-    }
-    n = perturb_normal(m, n, in.tangent, in.uv, lod);
+    let normals = fragment_normals(in, m, to_camera, lod);
     var out: GBufferOut;
     out.albedo = vec4f(s.base_color, s.metallic);
-    out.normal = vec4f(oct_encode(n), oct_encode(ng));
+    out.normal = vec4f(oct_encode(normals.shading), oct_encode(normals.geometric));
     out.material = vec2u(in.material, pack4x8unorm(vec4f(s.roughness, s.specular, 0.0, 0.0)));
     out.emission = vec4f(s.emission, 1.0);
     out.distance = length(to_camera);

@@ -292,6 +292,39 @@ pub(crate) fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::Bind
 
 /// A pipeline that rasterises the whole scene (one indexed draw of the GPU scene's vertex buffer) with
 /// a less-than depth test and no culling (rtgi shades both sides of every surface).
+/// `views` one per [`SHADOW_VIEW_STRIDE`]-byte slot of a uniform buffer, bound (with `layout` from
+/// [`uniform_layout`]`(device, true)`) for a pass per view selected by the dynamic offset
+/// `index * SHADOW_VIEW_STRIDE`.
+pub(crate) fn view_slots<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    views: &[T],
+) -> wgpu::BindGroup {
+    let stride = SHADOW_VIEW_STRIDE as usize;
+    let mut slots = vec![0u8; stride * views.len().max(1)];
+    for (i, v) in views.iter().enumerate() {
+        slots[i * stride..i * stride + size_of::<T>()].copy_from_slice(bytemuck::bytes_of(v));
+    }
+    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: &slots,
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &buffer,
+                offset: 0,
+                size: wgpu::BufferSize::new(size_of::<T>() as u64),
+            }),
+        }],
+    })
+}
+
 pub(crate) fn scene_raster_pipeline(
     device: &wgpu::Device,
     label: &str,
@@ -448,17 +481,6 @@ impl FrameResources {
             contents: bytemuck::cast_slice(&shadow_view_data),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        // The same views again, one per 256-byte slot, for the dynamic-offset uniform of the depth pass.
-        let mut slots = vec![0u8; SHADOW_VIEW_STRIDE as usize * shadow_view_data.len()];
-        for (i, v) in shadow_view_data.iter().enumerate() {
-            let o = i * SHADOW_VIEW_STRIDE as usize;
-            slots[o..o + size_of::<ShadowView>()].copy_from_slice(bytemuck::bytes_of(v));
-        }
-        let shadow_uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("shadow view slots"),
-            contents: &slots,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
         let comparison = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("shadow comparison"),
             address_mode_u: wgpu::AddressMode::ClampToEdge,
@@ -558,18 +580,8 @@ impl FrameResources {
 
         // Shadow pipeline (only when shadow maps are in use).
         let shadow_layout = uniform_layout(device, true);
-        let shadow_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shadow view"),
-            layout: &shadow_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &shadow_uniforms,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(size_of::<ShadowView>() as u64),
-                }),
-            }],
-        });
+        // The same views again, for the dynamic-offset uniform of the depth pass.
+        let shadow_bind_group = view_slots(device, "shadow view", &shadow_layout, &shadow_view_data);
         let shadow_pipeline = if views.is_empty() {
             None
         } else {

@@ -181,29 +181,8 @@ impl ReflectiveShadowMap {
         let depth = array_texture(ctx, "rsm depth", size, layers, DEPTH_FORMAT);
 
         let view_data: Vec<RsmView> = if views.is_empty() { vec![RsmView::zeroed()] } else { views.clone() };
-        let mut slots = vec![0u8; SHADOW_VIEW_STRIDE as usize * view_data.len()];
-        for (i, v) in view_data.iter().enumerate() {
-            let o = i * SHADOW_VIEW_STRIDE as usize;
-            slots[o..o + size_of::<RsmView>()].copy_from_slice(bytemuck::bytes_of(v));
-        }
-        let slot_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rsm view slots"),
-            contents: &slots,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
         let view_layout = frame::uniform_layout(device, true);
-        let view_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("rsm view"),
-            layout: &view_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &slot_buffer,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(size_of::<RsmView>() as u64),
-                }),
-            }],
-        });
+        let view_bind_group = frame::view_slots(device, "rsm view", &view_layout, &view_data);
         let pipeline = if views.is_empty() {
             None
         } else {

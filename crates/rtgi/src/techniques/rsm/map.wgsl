@@ -2,19 +2,10 @@
 // multiple render targets holding, per texel, the world position of the first surface the light reaches,
 // its normal, and the light it reflects. Layouts: see `rsm.wgsl`.
 
-#import common/scene.wgsl
+#import common/raster.wgsl
 #import common/lights.wgsl
 
 @group(1) @binding(0) var<uniform> rsm_view: RsmView;
-
-struct VertexOut {
-    @builtin(position) clip: vec4f,
-    @location(0) world: vec3f,
-    @location(1) normal: vec3f,
-    @location(2) tangent: vec4f,
-    @location(3) uv: vec2f,
-    @location(4) @interpolate(flat) material: u32,
-}
 
 @vertex
 fn vs_main(
@@ -23,16 +14,8 @@ fn vs_main(
     @location(2) normal_oct: u32,
     @location(3) tangent_oct: u32,
     @location(4) uv: vec2f,
-) -> VertexOut {
-    let v = Vertex(position, material_flags, normal_oct, tangent_oct, uv);
-    var out: VertexOut;
-    out.clip = rsm_view.view_proj * vec4f(position, 1.0);
-    out.world = position;
-    out.normal = vertex_normal(v);
-    out.tangent = vertex_tangent(v);
-    out.uv = uv;
-    out.material = vertex_material(v);
-    return out;
+) -> SceneVertexOut {
+    return scene_vertex(rsm_view.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
 }
 
 struct RsmOut {
@@ -42,7 +25,7 @@ struct RsmOut {
 }
 
 @fragment
-fn fs_main(in: VertexOut) -> RsmOut {
+fn fs_main(in: SceneVertexOut) -> RsmOut {
     let m = materials[in.material];
     let s = material_at(m, in.uv, 0.0);
     if m.alpha_cutoff >= 0.0 && s.alpha < m.alpha_cutoff {
@@ -50,16 +33,8 @@ fn fs_main(in: VertexOut) -> RsmOut {
     }
     let light = lights[rsm_view.light];
     let inc = light_incidence(light, in.world);
-    // Both normals face the light (rtgi shades both sides of every surface).
-    var ng = normalize(cross(dpdx(in.world), dpdy(in.world)));
-    if dot(ng, inc.direction) < 0.0 {
-        ng = -ng;
-    }
-    var n = normalize(in.normal);
-    if dot(n, ng) < 0.0 {
-        n = -n;
-    }
-    n = perturb_normal(m, n, in.tangent, in.uv, 0.0);
+    // Both normals face the light.
+    let n = fragment_normals(in, m, inc.direction, 0.0).shading;
     // Cross-section of the texel's beam at the surface: texel² for orthographic views; for perspective
     // views the texel's solid angle (texel² · cos³ of the angle to the view axis) times distance².
     var area = rsm_view.texel * rsm_view.texel;
