@@ -37,6 +37,24 @@ pub const DIRECT_PARAMS: [ParamSpec; 7] = [
     },
 ];
 
+/// A technique's parameter array: [`DIRECT_PARAMS`] followed by the technique's own, for techniques that
+/// add indirect light to the direct-lighting pass.
+macro_rules! with_direct_params {
+    ($($extra:expr),* $(,)?) => {
+        [
+            $crate::techniques::direct::DIRECT_PARAMS[0],
+            $crate::techniques::direct::DIRECT_PARAMS[1],
+            $crate::techniques::direct::DIRECT_PARAMS[2],
+            $crate::techniques::direct::DIRECT_PARAMS[3],
+            $crate::techniques::direct::DIRECT_PARAMS[4],
+            $crate::techniques::direct::DIRECT_PARAMS[5],
+            $crate::techniques::direct::DIRECT_PARAMS[6],
+            $($extra,)*
+        ]
+    };
+}
+pub(crate) use with_direct_params;
+
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "direct",
     description: "direct light only: shadow-mapped analytic lights, ray-traced area lights and environment",

@@ -23,7 +23,7 @@ use crate::scene::Scene;
 use crate::shaders::Defines;
 
 use super::compute::{self, storage_buffer_entry, storage_texture_entry, texture_entry, uniform_entry};
-use super::direct::{DIRECT_PARAMS, DirectLighting, DirectOutput};
+use super::direct::{DirectLighting, DirectOutput, with_direct_params};
 use super::discontinuity::{DiscontinuityFilter, FilterSettings, packed_buffer_bytes};
 use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
 
@@ -36,14 +36,7 @@ const CHUNK: u32 = 256;
 
 macro_rules! igi_params {
     ($($extra:expr),* $(,)?) => {
-        [
-            DIRECT_PARAMS[0],
-            DIRECT_PARAMS[1],
-            DIRECT_PARAMS[2],
-            DIRECT_PARAMS[3],
-            DIRECT_PARAMS[4],
-            DIRECT_PARAMS[5],
-            DIRECT_PARAMS[6],
+        with_direct_params![
             ParamSpec {
                 name: "vpls",
                 kind: ParamKind::Int { min: 1, max: 1 << 20 },

@@ -25,7 +25,7 @@ use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::render::RenderError;
 use crate::shaders::Defines;
 use crate::techniques::compute::{self, storage_texture_entry};
-use crate::techniques::direct::DIRECT_PARAMS;
+use crate::techniques::direct::with_direct_params;
 use crate::techniques::discontinuity::{self, DiscontinuityFilter, FilterSettings};
 use crate::techniques::{FrameContext, FrameNeeds, TechniqueInfo, TechniqueSetup};
 
@@ -66,14 +66,7 @@ const INTERLEAVE: ParamSpec = ParamSpec {
     doc: "interleaving pattern N×M: sub-buffers, sample subsets and the filter window",
 };
 
-const RSM_PARAMS: [ParamSpec; 13] = [
-    DIRECT_PARAMS[0],
-    DIRECT_PARAMS[1],
-    DIRECT_PARAMS[2],
-    DIRECT_PARAMS[3],
-    DIRECT_PARAMS[4],
-    DIRECT_PARAMS[5],
-    DIRECT_PARAMS[6],
+const RSM_PARAMS: [ParamSpec; 13] = with_direct_params!(
     RSM_SIZE,
     SAMPLES,
     R_MAX,
@@ -90,31 +83,12 @@ const RSM_PARAMS: [ParamSpec; 13] = [
         default: "false",
         doc: "gather every RSM texel (the method's converged value: no indirect occlusion) instead of samples",
     },
-];
+);
 
-const RSM_INTERLEAVED_PARAMS: [ParamSpec; 12] = [
-    DIRECT_PARAMS[0],
-    DIRECT_PARAMS[1],
-    DIRECT_PARAMS[2],
-    DIRECT_PARAMS[3],
-    DIRECT_PARAMS[4],
-    DIRECT_PARAMS[5],
-    DIRECT_PARAMS[6],
-    RSM_SIZE,
-    SAMPLES,
-    R_MAX,
-    WEIGHTING,
-    INTERLEAVE,
-];
+const RSM_INTERLEAVED_PARAMS: [ParamSpec; 12] =
+    with_direct_params!(RSM_SIZE, SAMPLES, R_MAX, WEIGHTING, INTERLEAVE,);
 
-const SII_PARAMS: [ParamSpec; 12] = [
-    DIRECT_PARAMS[0],
-    DIRECT_PARAMS[1],
-    DIRECT_PARAMS[2],
-    DIRECT_PARAMS[3],
-    DIRECT_PARAMS[4],
-    DIRECT_PARAMS[5],
-    DIRECT_PARAMS[6],
+const SII_PARAMS: [ParamSpec; 12] = with_direct_params!(
     RSM_SIZE,
     ParamSpec {
         name: "vpls",
@@ -141,7 +115,7 @@ const SII_PARAMS: [ParamSpec; 12] = [
         default: "true",
         doc: "interleaved: scale each VPL by N·M (the thesis did not, so its images lose (N·M−1)/(N·M) of the light)",
     },
-];
+);
 
 pub const RSM_INFO: TechniqueInfo = TechniqueInfo {
     name: "rsm",
