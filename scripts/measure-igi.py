@@ -70,7 +70,8 @@ def main():
     lines = ["# igi and igi-sh: measurements", "",
              f"Reproduce with `python3 scripts/measure-igi.py` (renders {SIZE}, one frame each: fully "
              "dynamic, nothing carried between frames). References: `path`, full GI (cornell 1024 spp, bumpy-glossy 512 spp). "
-             f"Adapter: {render('probe', 'cornell', 'igi', 'vpls=64')[1]['adapter']['name']}.", ""]
+             f"Adapter: {render('probe', 'cornell', 'igi', 'vpls=64')[1]['adapter']['name']}.", "",
+             "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are lavapipe wall times of the frames after the first (which includes lazy shader compilation); compare passes with each other, not with GPU figures. The closing note of issue 4 and the README read these tables.", ""]
 
     # 1. Convergence on cornell.
     lines += ["## Convergence to the full-GI reference (cornell, interleave 4x4, filter on, g_max=0)", "",
