@@ -227,24 +227,23 @@ mod tests {
 #[cfg(test)]
 mod gpu_tests {
     use super::*;
-    use crate::gpu::{GpuContext, GpuOptions, readback};
-    use crate::shaders::{Defines, create_module};
-    use wgpu::util::DeviceExt;
+    use crate::gpu::kernel::run_kernel;
+    use crate::gpu::{GpuContext, GpuOptions};
 
     const SHADER: &str = "#import common/sh.wgsl
-@group(0) @binding(0) var<storage, read> dirs: array<vec4f>;
-@group(0) @binding(1) var<storage, read_write> out: array<f32>;
+@group(0) @binding(0) var<storage, read> input: array<vec4f>;
+@group(0) @binding(1) var<storage, read_write> output: array<f32>;
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u) {
-    let n = arrayLength(&dirs);
+    let n = arrayLength(&input);
     if id.x >= n { return; }
-    let d = dirs[id.x];
+    let d = input[id.x];
     let b = sh_basis(d.xyz);
     for (var i = 0u; i < SH_COEFFICIENTS; i++) {
-        out[id.x * 30u + i] = b[i];
+        output[id.x * 30u + i] = b[i];
     }
     for (var l = 0u; l < SH_BANDS; l++) {
-        out[id.x * 30u + 25u + l] = sh_phong(d.w, l);
+        output[id.x * 30u + 25u + l] = sh_phong(d.w, l);
     }
 }";
 
@@ -259,46 +258,15 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
                 [s * phi.cos(), s * phi.sin(), z, 1.0 + (i % 7) as f32 * 13.0]
             })
             .collect();
-        let device = &ctx.device;
-        let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: None,
-            contents: bytemuck::cast_slice(&dirs),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let size = (dirs.len() * 30 * 4) as u64;
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let module = create_module(device, "sh test", SHADER, &Defines::new()).expect("compose");
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: None,
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
-            ],
-        });
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups((dirs.len() as u32).div_ceil(64), 1, 1);
-        }
-        ctx.queue.submit([encoder.finish()]);
-        let bytes = readback::read_buffer(&ctx, &output, 0, size).expect("readback");
-        let gpu: &[f32] = bytemuck::cast_slice(&bytes);
+        let gpu = run_kernel(
+            &ctx,
+            "sh test",
+            SHADER,
+            bytemuck::cast_slice(&dirs),
+            dirs.len() as u32,
+            dirs.len() * 30,
+        )
+        .expect("kernel");
         for (k, d) in dirs.iter().enumerate() {
             let cpu = basis(Vec3::new(d[0], d[1], d[2]));
             for i in 0..COEFFICIENTS {

@@ -2,6 +2,7 @@
 
 pub mod bvh;
 pub mod context;
+pub mod kernel;
 pub mod profiler;
 pub mod readback;
 pub mod scene;

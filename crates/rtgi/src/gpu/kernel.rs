@@ -1,0 +1,144 @@
+//! Runs a small WGSL compute kernel over an input buffer and reads back its f32 output: how unit tests
+//! check functions of the shared WGSL library against their CPU twins.
+
+use wgpu::util::DeviceExt;
+
+use super::{GpuContext, GpuError, readback};
+use crate::shaders::{Defines, create_module};
+
+/// `source` declares `@group(0) @binding(0) var<storage, read> input: array<...>` and
+/// `@group(0) @binding(1) var<storage, read_write> output: array<f32>` and an entry point `main` with
+/// `@workgroup_size(64)`; it runs `invocations` times and `output_len` floats come back.
+pub fn run_kernel(
+    ctx: &GpuContext,
+    name: &str,
+    source: &str,
+    input: &[u8],
+    invocations: u32,
+    output_len: usize,
+) -> Result<Vec<f32>, GpuError> {
+    let device = &ctx.device;
+    let padded;
+    let input = if input.is_empty() {
+        padded = [0u8; 16];
+        &padded[..]
+    } else {
+        input
+    };
+    let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(name),
+        contents: input,
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let size = (output_len.max(4) * 4) as u64;
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(name),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let module =
+        create_module(device, name, source, &Defines::new()).map_err(|e| GpuError::Other(e.to_string()))?;
+    // An explicit layout: the automatic one would drop a binding the kernel does not read.
+    let entry = |binding, read_only| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(name),
+        entries: &[entry(0, true), entry(1, false)],
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(name),
+        bind_group_layouts: &[Some(&group_layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(name),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(name),
+        layout: &group_layout,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(invocations.div_ceil(64), 1, 1);
+    }
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = readback::read_buffer(ctx, &output, 0, size)?;
+    let mut out: Vec<f32> = bytemuck::cast_slice(&bytes).to_vec();
+    out.truncate(output_len);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::GpuOptions;
+
+    fn radical_inverse(base: u32, mut i: u32) -> f64 {
+        let (mut f, mut r) = (1.0 / f64::from(base), 0.0);
+        while i > 0 {
+            r += f * f64::from(i % base);
+            i /= base;
+            f /= f64::from(base);
+        }
+        r
+    }
+
+    /// `halton` of `common/random.wgsl`: the radical inverse in the dim-th prime base, rotated.
+    #[test]
+    fn halton_is_the_radical_inverse_in_prime_bases() {
+        const PRIMES: [u32; 32] = [
+            2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71, 73, 79, 83, 89, 97,
+            101, 103, 107, 109, 113, 127, 131,
+        ];
+        let source = "#import common/random.wgsl
+@group(0) @binding(0) var<storage, read> input: array<u32>;
+@group(0) @binding(1) var<storage, read_write> output: array<f32>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= 32u * 512u { return; }
+    let dim = id.x / 512u;
+    let index = id.x % 512u;
+    output[2u * id.x] = halton(index, dim, 0.0);
+    output[2u * id.x + 1u] = halton(index, dim, 0.75);
+}";
+        let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+        let out = run_kernel(&ctx, "halton test", source, &[], 32 * 512, 2 * 32 * 512).expect("kernel");
+        for dim in 0..32u32 {
+            for index in 0..512u32 {
+                let k = (dim * 512 + index) as usize;
+                let want = radical_inverse(PRIMES[dim as usize], index);
+                assert!(
+                    (f64::from(out[2 * k]) - want).abs() < 1e-6,
+                    "dim {dim} index {index}: {}",
+                    out[2 * k]
+                );
+                let rotated = (want + 0.75).fract();
+                let got = f64::from(out[2 * k + 1]);
+                // fract() wraps near 1 (0.99999 vs 0.0): compare on the circle.
+                let d = (got - rotated).abs();
+                assert!(d.min(1.0 - d) < 1e-6, "dim {dim} index {index} rotated: {got} vs {rotated}");
+            }
+        }
+    }
+}
