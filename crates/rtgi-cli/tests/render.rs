@@ -20,12 +20,13 @@ fn ok(out: &std::process::Output) {
 #[test]
 fn same_command_twice_gives_identical_exr() {
     let dir = tempfile::tempdir().expect("temp dir");
-    for technique in ["direct", "path"] {
+    // Every registered technique, on the spot-lit box (which the RSM family can light).
+    for technique in rtgi::techniques::registry().iter().map(|t| t.name) {
         let args = |out: &'static str| {
             vec![
                 "render",
                 "--scene",
-                "cornell",
+                "cornell-spot",
                 "--technique",
                 technique,
                 "--size",
