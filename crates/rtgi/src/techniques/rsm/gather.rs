@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 
 use wgpu::util::DeviceExt;
 
-use super::interleave::{self, AtlasLayout, Merge, SplitGBuffer};
+use super::interleave::{self, AtlasLayout, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
-use super::{Composite, Filter, Indirect, Sampling, gather_samples, packed_buffer};
+use super::{Resolve, Sampling, gather_samples};
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::render::RenderError;
@@ -62,9 +62,7 @@ pub struct Gather {
     gather: GatherPass,
     /// Reduced resolution: upsampling and the full-resolution gather of the pixels it cannot interpolate.
     upsample: Option<(wgpu::ComputePipeline, wgpu::BindGroup, GatherPass, wgpu::Texture)>,
-    merge: Option<Merge>,
-    filter: Option<Filter>,
-    composite: Composite,
+    resolve: Resolve,
     samples_per_pixel: u32,
     brute_force: bool,
 }
@@ -235,25 +233,7 @@ impl Gather {
             upsample = Some((pipeline, group, fixup, full.clone()));
             indirect = full;
         }
-        let mut merge = None;
-        let mut filter = None;
-        let composite = if layout.is_interleaved() {
-            let merged = packed_buffer(setup, "rsm indirect merged");
-            merge = Some(Merge::new(
-                ctx,
-                setup.frame,
-                &setup.gpu_scene.bind_group_layout,
-                layout,
-                &indirect,
-                &merged,
-            )?);
-            let f = Filter::new(setup, interleave, &merged)?;
-            let c = Composite::new(setup, &direct_target, Indirect::Packed(f.output()))?;
-            filter = Some(f);
-            c
-        } else {
-            Composite::new(setup, &direct_target, Indirect::Texture(&indirect))?
-        };
+        let resolve = Resolve::new(setup, layout, &indirect, &direct_target)?;
         Ok(Gather {
             direct,
             rsm,
@@ -263,9 +243,7 @@ impl Gather {
             split,
             gather,
             upsample,
-            merge,
-            filter,
-            composite,
+            resolve,
             samples_per_pixel: per_subset,
             brute_force,
         })
@@ -297,13 +275,7 @@ impl Technique for Gather {
             })?;
             profiler.pass(ctx, "full-resolution fixup", |e| fixup.record(e, fc, &self.rsm))?;
         }
-        if let Some(merge) = &self.merge {
-            profiler.pass(ctx, "merge", |e| merge.record(e, scene, fc.frame))?;
-        }
-        if let Some(filter) = &self.filter {
-            filter.render(fc, profiler)?;
-        }
-        self.composite.render(fc, profiler)
+        self.resolve.render(fc, profiler)
     }
 
     fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {

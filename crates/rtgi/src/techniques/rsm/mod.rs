@@ -30,6 +30,7 @@ use crate::techniques::discontinuity::{self, DiscontinuityFilter, FilterSettings
 use crate::techniques::{FrameContext, FrameNeeds, TechniqueInfo, TechniqueSetup};
 
 pub use interleave::AtlasLayout;
+use interleave::Merge;
 pub use map::{RsmView, reader_source};
 
 const RSM_SIZE: ParamSpec = ParamSpec {
@@ -221,13 +222,13 @@ pub fn gather_samples(s: &Sampling, seed: u32, frame: u32) -> Vec<[f32; 4]> {
 }
 
 /// Where the composite reads the indirect light from.
-pub enum Indirect<'a> {
+enum Indirect<'a> {
     Texture(&'a wgpu::Texture),
     Packed(&'a wgpu::Buffer),
 }
 
 /// Direct + indirect into the output, accumulated over frames (pass "composite").
-pub struct Composite {
+struct Composite {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
 }
@@ -303,7 +304,7 @@ impl Composite {
 
 /// The geometry-aware blur of interleaved sampling: the shared discontinuity filter over exactly the
 /// N×M pattern (pass "discontinuity filter").
-pub struct Filter {
+struct Filter {
     filter: DiscontinuityFilter,
     output: wgpu::Buffer,
 }
@@ -341,8 +342,53 @@ impl Filter {
     }
 }
 
+/// How every RSM technique ends a frame: when interleaved, merge the sub-buffers back into the image
+/// layout and blur them over the pattern with the discontinuity filter; then direct + indirect into the
+/// output.
+pub struct Resolve {
+    merge: Option<(Merge, Filter)>,
+    composite: Composite,
+}
+
+impl Resolve {
+    /// `indirect` is in `layout` (the atlas when interleaved, the image otherwise).
+    pub fn new(
+        setup: &TechniqueSetup,
+        layout: AtlasLayout,
+        indirect: &wgpu::Texture,
+        direct: &wgpu::Texture,
+    ) -> Result<Self, RenderError> {
+        if !layout.is_interleaved() {
+            return Ok(Resolve {
+                merge: None,
+                composite: Composite::new(setup, direct, Indirect::Texture(indirect))?,
+            });
+        }
+        let merged = packed_buffer(setup, "indirect merged");
+        let merge = Merge::new(
+            setup.ctx,
+            setup.frame,
+            &setup.gpu_scene.bind_group_layout,
+            layout,
+            indirect,
+            &merged,
+        )?;
+        let filter = Filter::new(setup, (layout.n, layout.m), &merged)?;
+        let composite = Composite::new(setup, direct, Indirect::Packed(filter.output()))?;
+        Ok(Resolve { merge: Some((merge, filter)), composite })
+    }
+
+    pub fn render(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        if let Some((merge, filter)) = &self.merge {
+            profiler.pass(fc.ctx, "merge", |e| merge.record(e, &fc.gpu_scene.bind_group, fc.frame))?;
+            filter.render(fc, profiler)?;
+        }
+        self.composite.render(fc, profiler)
+    }
+}
+
 /// A packed half-float buffer of one vec4 per pixel.
-pub fn packed_buffer(setup: &TechniqueSetup, label: &str) -> wgpu::Buffer {
+fn packed_buffer(setup: &TechniqueSetup, label: &str) -> wgpu::Buffer {
     compute::storage_buffer(
         setup.ctx,
         label,

@@ -4,9 +4,9 @@ use std::collections::BTreeMap;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::interleave::{self, AtlasLayout, Merge, SplitGBuffer};
+use super::Resolve;
+use super::interleave::{self, AtlasLayout, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
-use super::{Composite, Filter, Indirect, packed_buffer};
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::render::RenderError;
@@ -69,9 +69,7 @@ pub struct Splat {
     splat_group: wgpu::BindGroup,
     pub(super) atlas: wgpu::Texture,
     atlas_view: wgpu::TextureView,
-    merge: Option<Merge>,
-    filter: Option<Filter>,
-    composite: Composite,
+    resolve: Resolve,
     cdf_built: bool,
     atlas_format: wgpu::TextureFormat,
 }
@@ -215,25 +213,7 @@ impl Splat {
             cache: None,
         });
 
-        let mut merge = None;
-        let mut filter = None;
-        let composite = if layout.is_interleaved() {
-            let merged = packed_buffer(setup, "sii indirect merged");
-            merge = Some(Merge::new(
-                ctx,
-                setup.frame,
-                &setup.gpu_scene.bind_group_layout,
-                layout,
-                &atlas,
-                &merged,
-            )?);
-            let f = Filter::new(setup, pattern, &merged)?;
-            let c = Composite::new(setup, &direct_target, Indirect::Packed(f.output()))?;
-            filter = Some(f);
-            c
-        } else {
-            Composite::new(setup, &direct_target, Indirect::Texture(&atlas))?
-        };
+        let resolve = Resolve::new(setup, layout, &atlas, &direct_target)?;
         Ok(Splat {
             direct,
             rsm,
@@ -249,9 +229,7 @@ impl Splat {
             splat_group,
             atlas,
             atlas_view,
-            merge,
-            filter,
-            composite,
+            resolve,
             cdf_built: false,
             atlas_format,
         })
@@ -309,13 +287,7 @@ impl Technique for Splat {
             pass.set_bind_group(3, &self.rsm.bind_group, &[]);
             pass.draw(0..6, 0..self.params.count);
         })?;
-        if let Some(merge) = &self.merge {
-            profiler.pass(ctx, "merge", |e| merge.record(e, scene, fc.frame))?;
-        }
-        if let Some(filter) = &self.filter {
-            filter.render(fc, profiler)?;
-        }
-        self.composite.render(fc, profiler)
+        self.resolve.render(fc, profiler)
     }
 
     fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
