@@ -292,6 +292,16 @@ pub(crate) fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::Bind
 
 /// A pipeline that rasterises the whole scene (one indexed draw of the GPU scene's vertex buffer) with
 /// a less-than depth test and no culling (rtgi shades both sides of every surface).
+/// A 2D view of one layer of an array texture (a render target of a per-view pass).
+pub(crate) fn layer_view(texture: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
+    texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2),
+        base_array_layer: layer,
+        array_layer_count: Some(1),
+        ..Default::default()
+    })
+}
+
 /// `views` one per [`SHADOW_VIEW_STRIDE`]-byte slot of a uniform buffer, bound (with `layout` from
 /// [`uniform_layout`]`(device, true)`) for a pass per view selected by the dynamic offset
 /// `index * SHADOW_VIEW_STRIDE`.
@@ -636,12 +646,7 @@ impl FrameResources {
             if let Some(pipeline) = &self.shadow_pipeline {
                 profiler.pass(ctx, "shadow maps", |encoder| {
                     for layer in 0..self.shadow_views.len() as u32 {
-                        let view = self.shadow_maps.create_view(&wgpu::TextureViewDescriptor {
-                            dimension: Some(wgpu::TextureViewDimension::D2),
-                            base_array_layer: layer,
-                            array_layer_count: Some(1),
-                            ..Default::default()
-                        });
+                        let view = layer_view(&self.shadow_maps, layer);
                         let offset = layer * SHADOW_VIEW_STRIDE as u32;
                         draw_scene(
                             encoder,

@@ -288,14 +288,7 @@ impl ReflectiveShadowMap {
             return Ok(());
         };
         profiler.pass(ctx, "rsm", |encoder| {
-            let layer_view = |t: &wgpu::Texture, layer: u32| {
-                t.create_view(&wgpu::TextureViewDescriptor {
-                    dimension: Some(wgpu::TextureViewDimension::D2),
-                    base_array_layer: layer,
-                    array_layer_count: Some(1),
-                    ..Default::default()
-                })
-            };
+            let layer_view = frame::layer_view;
             for layer in 0..self.views.len() as u32 {
                 let targets = [&self.position, &self.normal, &self.intensity].map(|t| layer_view(t, layer));
                 let colors: Vec<Option<wgpu::RenderPassColorAttachment>> = targets
