@@ -112,6 +112,12 @@ fn decode_gsurface(pixel: vec2u, distance: f32, nrm: vec4f, alb: vec4f, mat: vec
     return s;
 }
 
+// Origin of secondary rays leaving a G-buffer surface, offset along its geometric normal relative to the
+// camera distance (the precision of the reconstructed position).
+fn gsurface_ray_origin(s: GSurface) -> vec3f {
+    return s.position + s.geometric_normal * (1e-4 * max(1.0, s.distance));
+}
+
 // Cube face of a direction, in the order +X, −X, +Y, −Y, +Z, −Z (matches frame/shadows.rs).
 fn cube_face(d: vec3f) -> i32 {
     let a = abs(d);

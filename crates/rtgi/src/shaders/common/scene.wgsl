@@ -222,6 +222,12 @@ fn surface_at(triangle: u32, u: f32, v: f32, dir: vec3f) -> SurfaceHit {
     return s;
 }
 
+// A ray origin off the surface at p (geometric normal ng), by an offset relative to the scene's float
+// precision at p, so secondary rays do not hit the surface they leave.
+fn offset_origin(p: vec3f, ng: vec3f) -> vec3f {
+    return p + ng * (1e-4 * max(1.0, max3(abs(p))));
+}
+
 // Alpha-mask test called by the BVH traversal for triangles flagged as alpha-tested.
 fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool {
     let t = triangle_vertices(triangle);

@@ -11,16 +11,9 @@
 
 @group(2) @binding(0) var output: texture_storage_2d<rgba32float, read_write>;
 
-// Offset of secondary-ray origins, relative to the distance from the camera (float precision).
-const RAY_EPSILON: f32 = 1e-4;
-
-fn ray_origin(s: GSurface) -> vec3f {
-    return s.position + s.geometric_normal * (RAY_EPSILON * max(1.0, s.distance));
-}
-
 // One sample of light from emissive triangles.
 fn sample_emissive(s: GSurface, u: vec3f) -> vec3f {
-    let o = ray_origin(s);
+    let o = gsurface_ray_origin(s);
     let ls = sample_area_light(o, u);
     let cos_surf = dot(s.normal, ls.direction);
     if ls.pdf <= 0.0 || cos_surf <= 0.0 || dot(s.geometric_normal, ls.direction) <= 0.0 {
@@ -39,7 +32,7 @@ fn sample_environment(s: GSurface, u: vec2f) -> vec3f {
     if es.pdf <= 0.0 || cos_theta <= 0.0 || dot(s.geometric_normal, es.direction) <= 0.0 {
         return vec3f(0.0);
     }
-    if trace_any(Ray(ray_origin(s), es.direction), 0.0, FLT_MAX) {
+    if trace_any(Ray(gsurface_ray_origin(s), es.direction), 0.0, FLT_MAX) {
         return vec3f(0.0);
     }
     return brdf_eval(s.material, s.normal, s.view, es.direction) * es.radiance * cos_theta / es.pdf;

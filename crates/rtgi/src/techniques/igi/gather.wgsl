@@ -34,15 +34,11 @@ struct Chunk {
     _pad2: u32,
 }
 
-fn ray_origin(s: GSurface) -> vec3f {
-    return s.position + s.geometric_normal * (1e-4 * max(1.0, s.distance));
-}
-
 // Radiance leaving the surface hit `y` towards -dir from the VPLs [first, last), clamped like the
 // primary gather, plus y's emission when `with_emission`.
 fn outgoing_from_vpls(y: SurfaceHit, dir: vec3f, first: u32, last: u32, with_emission: bool) -> vec3f {
     var l = select(vec3f(0.0), y.material.emission, with_emission);
-    let origin = vpl_offset(y.position, y.geometric_normal);
+    let origin = offset_origin(y.position, y.geometric_normal);
     for (var k = first; k < last; k++) {
         let v = vpls[k];
         if v.kind == VPL_EMPTY {
@@ -81,7 +77,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         let set_index = (id.x % INTERLEAVE_X) + INTERLEAVE_X * (id.y % INTERLEAVE_Y);
         let first = set_index * SLOTS_PER_SET + chunk.begin;
         let last = set_index * SLOTS_PER_SET + min(chunk.begin + CHUNK, SLOTS_PER_SET);
-        let origin = ray_origin(s);
+        let origin = gsurface_ray_origin(s);
         let n_dot_v = dot(s.normal, s.view);
         let weights = brdf_lobe_weights(s.material, n_dot_v);
         let demodulate = weights.diffuse + weights.specular;

@@ -119,7 +119,7 @@ fn disc_origin(d: vec3f, u: vec2f) -> vec3f {
 fn surface_vpl(s: SurfaceHit, incoming: vec3f, flux: vec3f) -> Vpl {
     var v: Vpl;
     v.kind = VPL_SURFACE;
-    v.position = vpl_offset(s.position, s.geometric_normal);
+    v.position = offset_origin(s.position, s.geometric_normal);
     v.normal = s.normal;
     v.flux = flux;
     v.incoming = incoming;
@@ -208,7 +208,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
                 flux = emission * PI / area_pdf * scale;
             }
             first.kind = VPL_EMITTER;
-            first.position = vpl_offset(p, ng);
+            first.position = offset_origin(p, ng);
             first.normal = ng;
             first.flux = flux;
             origin = first.position;
@@ -266,7 +266,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             return;
         }
         flux *= bs.weight;
-        origin = vpl_offset(s.position, s.geometric_normal);
+        origin = offset_origin(s.position, s.geometric_normal);
         dir = bs.direction;
     }
 }

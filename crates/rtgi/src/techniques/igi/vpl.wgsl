@@ -87,8 +87,3 @@ fn vpl_incidence(v: Vpl, x: vec3f) -> VplIncidence {
     }
     return r;
 }
-
-// Offset of points stored on surfaces off the surface (float precision, relative to scene scale).
-fn vpl_offset(p: vec3f, ng: vec3f) -> vec3f {
-    return p + ng * (1e-4 * max(1.0, max3(abs(p))));
-}

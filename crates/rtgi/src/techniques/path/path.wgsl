@@ -20,10 +20,6 @@
 const ROULETTE_DEPTH: u32 = 3u;
 const ROULETTE_THRESHOLD: f32 = 0.1;
 
-fn offset_origin(p: vec3f, ng: vec3f) -> vec3f {
-    return p + ng * (1e-4 * max(1.0, max3(abs(p))));
-}
-
 fn visible(origin: vec3f, dir: vec3f, dist: f32, rays: ptr<function, u32>) -> bool {
     *rays += 1u;
     return !trace_any(Ray(origin, dir), 0.0, dist);
