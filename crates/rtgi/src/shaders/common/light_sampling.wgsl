@@ -15,15 +15,20 @@ struct AreaLightSample {
     pdf: f32,
 }
 
-fn sample_area_light(origin: vec3f, u: vec3f) -> AreaLightSample {
-    var r: AreaLightSample;
-    r.pdf = 0.0;
-    let count = scene_info.emissive_count;
-    if count == 0u {
-        return r;
-    }
+// A point on the emissive triangles, chosen by power (u.x) and uniformly on its triangle (u.yz).
+struct EmitterPoint {
+    position: vec3f,
+    // Unit geometric normal of the triangle (either side emits).
+    normal: vec3f,
+    emission: vec3f,
+    // Area density of the choice over all emissive surface.
+    area_pdf: f32,
+}
+
+// Requires scene_info.emissive_count > 0.
+fn sample_emitter_point(u: vec3f) -> EmitterPoint {
     var lo = 0u;
-    var hi = count - 1u;
+    var hi = scene_info.emissive_count - 1u;
     while lo < hi {
         let mid = (lo + hi) / 2u;
         if emissive_triangles[mid].cdf < u.x {
@@ -32,13 +37,28 @@ fn sample_area_light(origin: vec3f, u: vec3f) -> AreaLightSample {
             hi = mid;
         }
     }
-    let e = emissive_triangles[lo];
-    let t = triangle_vertices(e.triangle);
+    let t = triangle_vertices(emissive_triangles[lo].triangle);
     let b = sample_triangle(u.yz);
     let w = 1.0 - b.x - b.y;
-    let p = t[0].position * w + t[1].position * b.x + t[2].position * b.y;
-    let ln = normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
-    let d = p - origin;
+    var r: EmitterPoint;
+    r.position = t[0].position * w + t[1].position * b.x + t[2].position * b.y;
+    r.normal = normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
+    let material_index = vertex_material(t[0]);
+    let uv = t[0].uv * w + t[1].uv * b.x + t[2].uv * b.y;
+    r.emission = material_at(materials[material_index], uv, 0.0).emission;
+    r.area_pdf = emission_pdf[material_index];
+    return r;
+}
+
+fn sample_area_light(origin: vec3f, u: vec3f) -> AreaLightSample {
+    var r: AreaLightSample;
+    r.pdf = 0.0;
+    if scene_info.emissive_count == 0u {
+        return r;
+    }
+    let e = sample_emitter_point(u);
+    let ln = e.normal;
+    let d = e.position - origin;
     let dist2 = dot(d, d);
     r.distance = sqrt(dist2);
     r.direction = d / r.distance;
@@ -46,10 +66,8 @@ fn sample_area_light(origin: vec3f, u: vec3f) -> AreaLightSample {
     if cos_light <= 1e-7 {
         return r;
     }
-    let material_index = vertex_material(t[0]);
-    let uv = t[0].uv * w + t[1].uv * b.x + t[2].uv * b.y;
-    r.radiance = material_at(materials[material_index], uv, 0.0).emission;
-    r.pdf = emission_pdf[material_index] * dist2 / cos_light;
+    r.radiance = e.emission;
+    r.pdf = e.area_pdf * dist2 / cos_light;
     return r;
 }
 

@@ -10,6 +10,7 @@
 #import common/environment.wgsl
 #import common/random.wgsl
 #import common/sampling.wgsl
+#import common/light_sampling.wgsl
 
 @group(2) @binding(0) var<storage, read_write> vpls: array<Vpl>;
 // [0, D]: N_j, the paths alive at vertex j; [D + 1, 2D + 1]: offset_j of vertex j's slots in a set
@@ -86,20 +87,6 @@ fn find_entry(u: f32) -> u32 {
     while lo < hi {
         let mid = (lo + hi) / 2u;
         if light_entries[mid].cdf < u {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    return lo;
-}
-
-fn find_emissive(u: f32) -> u32 {
-    var lo = 0u;
-    var hi = scene_info.emissive_count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if emissive_triangles[mid].cdf < u {
             lo = mid + 1u;
         } else {
             hi = mid;
@@ -192,23 +179,15 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             }
         }
         case ENTRY_EMISSIVE: {
-            let e = emissive_triangles[find_emissive(u1.x)];
-            let t = triangle_vertices(e.triangle);
-            let b = sample_triangle(vec2f(u1.y, u2.x));
-            let w = 1.0 - b.x - b.y;
-            let p = t[0].position * w + t[1].position * b.x + t[2].position * b.y;
-            let side = select(-1.0, 1.0, u2.y < 0.5);
-            let ng = side * normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
-            let material_index = vertex_material(t[0]);
-            let uv = t[0].uv * w + t[1].uv * b.x + t[2].uv * b.y;
-            let emission = material_at(materials[material_index], uv, 0.0).emission;
+            let e = sample_emitter_point(vec3f(u1, u2.x));
+            let ng = select(-1.0, 1.0, u2.y < 0.5) * e.normal;
             // Two-sided emitter: one side per path, chosen with probability 1/2.
-            let area_pdf = emission_pdf[material_index] * 0.5;
+            let area_pdf = e.area_pdf * 0.5;
             if area_pdf > 0.0 {
-                flux = emission * PI / area_pdf * scale;
+                flux = e.emission * PI / area_pdf * scale;
             }
             first.kind = VPL_EMITTER;
-            first.position = offset_origin(p, ng);
+            first.position = offset_origin(e.position, ng);
             first.normal = ng;
             first.flux = flux;
             origin = first.position;
