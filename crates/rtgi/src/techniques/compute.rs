@@ -176,3 +176,59 @@ pub fn dispatch(
     }
     pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
 }
+
+/// Per-dispatch constants (a sample index, a chunk of work) in one uniform buffer, one aligned slot per
+/// dispatch, picked with a dynamic offset: one bind group serves every dispatch of a pass. (Long loops
+/// inside one invocation are unsafe on lavapipe, so passes split their work across dispatches.)
+pub struct DispatchSlots {
+    buffer: wgpu::Buffer,
+    stride: u32,
+    size: u64,
+    count: u32,
+}
+
+impl DispatchSlots {
+    pub fn new<T: bytemuck::Pod>(ctx: &GpuContext, label: &str, values: &[T]) -> Self {
+        use wgpu::util::DeviceExt;
+        let size = size_of::<T>();
+        let stride =
+            (ctx.limits().min_uniform_buffer_offset_alignment as usize).max(size).next_multiple_of(16);
+        let mut bytes = vec![0u8; stride * values.len().max(1)];
+        for (i, v) in values.iter().enumerate() {
+            bytes[i * stride..i * stride + size].copy_from_slice(bytemuck::bytes_of(v));
+        }
+        let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        DispatchSlots { buffer, stride: stride as u32, size: size as u64, count: values.len() as u32 }
+    }
+
+    /// The layout entry of the slot's uniform (dynamic offset).
+    pub fn entry(&self, binding: u32) -> wgpu::BindGroupLayoutEntry {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(self.size),
+            },
+            count: None,
+        }
+    }
+
+    pub fn resource(&self) -> wgpu::BindingResource<'_> {
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &self.buffer,
+            offset: 0,
+            size: wgpu::BufferSize::new(self.size),
+        })
+    }
+
+    /// The dynamic offset of every dispatch, in order.
+    pub fn offsets(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.count).map(|i| i * self.stride)
+    }
+}

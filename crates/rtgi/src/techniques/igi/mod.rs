@@ -22,7 +22,9 @@ use crate::render::RenderError;
 use crate::scene::Scene;
 use crate::shaders::Defines;
 
-use super::compute::{self, storage_buffer_entry, storage_texture_entry, texture_entry, uniform_entry};
+use super::compute::{
+    self, DispatchSlots, storage_buffer_entry, storage_texture_entry, texture_entry, uniform_entry,
+};
 use super::direct::{DirectLighting, DirectOutput, with_direct_params};
 use super::discontinuity::{DiscontinuityFilter, FilterSettings, packed_buffer_bytes};
 use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
@@ -317,8 +319,7 @@ struct Igi {
     generate: Option<(wgpu::ComputePipeline, wgpu::BindGroup, u32)>,
     gather: wgpu::ComputePipeline,
     gather_group: wgpu::BindGroup,
-    chunk_stride: u32,
-    chunks: u32,
+    chunks: DispatchSlots,
     filter: Option<DiscontinuityFilter>,
     shade: wgpu::ComputePipeline,
     shade_group: wgpu::BindGroup,
@@ -470,18 +471,10 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     let accum = compute::storage_buffer(ctx, "igi accumulation", packed);
     let filtered = compute::storage_buffer(ctx, "igi filtered", packed);
     let clamp_stats = compute::storage_buffer(ctx, "igi clamp stats", u64::from(width * height) * 16);
-    let chunks = slots_per_set.div_ceil(CHUNK);
-    let stride = ctx.limits().min_uniform_buffer_offset_alignment.max(16);
-    let mut slots = vec![0u8; (stride * chunks) as usize];
-    for c in 0..chunks {
-        let o = (c * stride) as usize;
-        slots[o..o + 4].copy_from_slice(&(c * CHUNK).to_le_bytes());
-    }
-    let chunk_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("igi chunks"),
-        contents: &slots,
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
+    // Chunk.begin of each dispatch (see gather.wgsl).
+    let chunk_begins: Vec<[u32; 4]> =
+        (0..slots_per_set.div_ceil(CHUNK)).map(|c| [c * CHUNK, 0, 0, 0]).collect();
+    let chunks = DispatchSlots::new(ctx, "igi chunks", &chunk_begins);
     let gather_layout = compute::layout(
         ctx,
         "igi gather",
@@ -489,16 +482,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
             storage_buffer_entry(0, true),
             storage_buffer_entry(1, false),
             storage_buffer_entry(2, false),
-            wgpu::BindGroupLayoutEntry {
-                binding: 3,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: wgpu::BufferSize::new(16),
-                },
-                count: None,
-            },
+            chunks.entry(3),
         ],
     );
     let gather_group = compute::bind_group(
@@ -509,11 +493,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
             vpl_buffer.as_entire_binding(),
             accum.as_entire_binding(),
             clamp_stats.as_entire_binding(),
-            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &chunk_buffer,
-                offset: 0,
-                size: wgpu::BufferSize::new(16),
-            }),
+            chunks.resource(),
         ],
     );
     let gather = compute::pipeline(
@@ -601,7 +581,6 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         generate,
         gather,
         gather_group,
-        chunk_stride: stride,
         chunks,
         filter,
         shade,
@@ -650,8 +629,8 @@ impl Technique for Igi {
             pass.set_pipeline(&self.gather);
             pass.set_bind_group(0, &fc.gpu_scene.bind_group, &[]);
             pass.set_bind_group(1, &fc.frame.bind_group, &[]);
-            for c in 0..self.chunks {
-                pass.set_bind_group(2, &self.gather_group, &[c * self.chunk_stride]);
+            for offset in self.chunks.offsets() {
+                pass.set_bind_group(2, &self.gather_group, &[offset]);
                 pass.dispatch_workgroups(
                     self.width.div_ceil(compute::TILE),
                     self.height.div_ceil(compute::TILE),

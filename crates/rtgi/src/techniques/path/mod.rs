@@ -13,7 +13,7 @@ use crate::params::{ParamKind, ParamSpec};
 use crate::render::RenderError;
 use crate::shaders::Defines;
 
-use super::compute::{self, storage_texture_entry};
+use super::compute::{self, DispatchSlots, storage_texture_entry};
 use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
 
 const PARAMS: &[ParamSpec] = &[
@@ -68,7 +68,7 @@ struct PathTracer {
     bind_group: wgpu::BindGroup,
     ray_counter: wgpu::Buffer,
     spp: u32,
-    slot_stride: u32,
+    sample_indices: DispatchSlots,
     rays: u64,
     samples: u64,
     pass_ms: f64,
@@ -76,6 +76,10 @@ struct PathTracer {
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     let device = &setup.ctx.device;
+    let p = setup.params;
+    let spp = p.int("spp") as u32;
+    // One sample per dispatch (the lavapipe loop bug, see README).
+    let sample_indices = DispatchSlots::new(setup.ctx, "sample indices", &(0..spp).collect::<Vec<u32>>());
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("path"),
         entries: &[
@@ -90,35 +94,13 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
                 },
                 count: None,
             },
-            wgpu::BindGroupLayoutEntry {
-                binding: 2,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: wgpu::BufferSize::new(4),
-                },
-                count: None,
-            },
+            sample_indices.entry(2),
         ],
     });
     let ray_counter = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("ray counter"),
         contents: &[0u8; 4],
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-    });
-    let p = setup.params;
-    let spp = p.int("spp") as u32;
-    // One 256-byte slot per sample index, selected with a dynamic offset per dispatch.
-    let stride = setup.ctx.limits().min_uniform_buffer_offset_alignment.max(4) as usize;
-    let mut slots = vec![0u8; stride * spp as usize];
-    for i in 0..spp as usize {
-        slots[i * stride..i * stride + 4].copy_from_slice(&(i as u32).to_le_bytes());
-    }
-    let sample_indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("sample indices"),
-        contents: &slots,
-        usage: wgpu::BufferUsages::UNIFORM,
     });
     let view = setup.output.create_view(&Default::default());
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -127,14 +109,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         entries: &[
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
             wgpu::BindGroupEntry { binding: 1, resource: ray_counter.as_entire_binding() },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &sample_indices,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(4),
-                }),
-            },
+            wgpu::BindGroupEntry { binding: 2, resource: sample_indices.resource() },
         ],
     });
     let nee = match p.choice("nee") {
@@ -160,7 +135,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         bind_group,
         ray_counter,
         spp,
-        slot_stride: stride as u32,
+        sample_indices,
         rays: 0,
         samples: 0,
         pass_ms: 0.0,
@@ -180,8 +155,8 @@ impl Technique for PathTracer {
             pass.set_bind_group(0, &fc.gpu_scene.bind_group, &[]);
             pass.set_bind_group(1, &fc.frame.bind_group, &[]);
             let (wx, wy) = (fc.frame.width.div_ceil(compute::TILE), fc.frame.height.div_ceil(compute::TILE));
-            for sample in 0..self.spp {
-                pass.set_bind_group(2, &self.bind_group, &[sample * self.slot_stride]);
+            for offset in self.sample_indices.offsets() {
+                pass.set_bind_group(2, &self.bind_group, &[offset]);
                 pass.dispatch_workgroups(wx, wy, 1);
             }
         })?;

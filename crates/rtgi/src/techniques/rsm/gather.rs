@@ -3,8 +3,6 @@
 
 use std::collections::BTreeMap;
 
-use wgpu::util::DeviceExt;
-
 use super::interleave::{self, AtlasLayout, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
 use super::{Resolve, Sampling, gather_samples};
@@ -12,7 +10,7 @@ use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::render::RenderError;
 use crate::shaders::Defines;
-use crate::techniques::compute::{self, storage_texture_entry};
+use crate::techniques::compute::{self, DispatchSlots, storage_texture_entry};
 use crate::techniques::direct::{DirectLighting, DirectOutput};
 use crate::techniques::{FrameContext, Technique, TechniqueSetup};
 
@@ -30,23 +28,30 @@ struct Chunk {
     _pad: u32,
 }
 
-/// One gather pipeline over one atlas, its per-chunk bind groups.
+/// One gather pipeline over one atlas, one dispatch per chunk of samples.
 struct GatherPass {
     pipeline: wgpu::ComputePipeline,
-    groups: Vec<wgpu::BindGroup>,
+    group: wgpu::BindGroup,
+    chunks: DispatchSlots,
     size: (u32, u32),
 }
 
 impl GatherPass {
     fn record(&self, encoder: &mut wgpu::CommandEncoder, fc: &FrameContext, rsm: &ReflectiveShadowMap) {
-        for g in &self.groups {
-            compute::dispatch_pixels(
-                encoder,
-                "rsm gather",
-                &self.pipeline,
-                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, g, &rsm.bind_group],
-                self.size.0,
-                self.size.1,
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("rsm gather"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &fc.gpu_scene.bind_group, &[]);
+        pass.set_bind_group(1, &fc.frame.bind_group, &[]);
+        pass.set_bind_group(3, &rsm.bind_group, &[]);
+        for offset in self.chunks.offsets() {
+            pass.set_bind_group(2, &self.group, &[offset]);
+            pass.dispatch_workgroups(
+                self.size.0.div_ceil(compute::TILE),
+                self.size.1.div_ceil(compute::TILE),
+                1,
             );
         }
     }
@@ -80,10 +85,22 @@ fn gather_pass(
     fixup: bool,
 ) -> Result<GatherPass, RenderError> {
     let ctx = setup.ctx;
+    let (total, step) =
+        if brute_force { (rsm.texels(), TEXELS_PER_DISPATCH) } else { (per_subset, SAMPLES_PER_DISPATCH) };
+    let chunk_list: Vec<Chunk> = (0..total.max(1))
+        .step_by(step as usize)
+        .map(|first| Chunk {
+            first,
+            count: step.min(total - first),
+            accumulate: u32::from(first > 0),
+            _pad: 0,
+        })
+        .collect();
+    let chunks = DispatchSlots::new(ctx, "rsm gather chunks", &chunk_list);
     let mut entries = vec![
         storage_texture_entry(0, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
         compute::storage_buffer_entry(1, true),
-        compute::uniform_entry(2),
+        chunks.entry(2),
     ];
     entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
     let bgl = compute::layout(ctx, "rsm gather", &entries);
@@ -107,42 +124,28 @@ fn gather_pass(
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &bgl, &rsm.layout],
     )?;
-    let (total, step) =
-        if brute_force { (rsm.texels(), TEXELS_PER_DISPATCH) } else { (per_subset, SAMPLES_PER_DISPATCH) };
     let target_view = target.create_view(&Default::default());
-    let mut groups = Vec::new();
-    let mut first = 0;
-    while first < total.max(1) {
-        let chunk =
-            Chunk { first, count: step.min(total - first), accumulate: u32::from(first > 0), _pad: 0 };
-        let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rsm gather chunk"),
-            contents: bytemuck::bytes_of(&chunk),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let mut resources = vec![
-            wgpu::BindingResource::TextureView(&target_view),
-            samples.as_entire_binding(),
-            buffer.as_entire_binding(),
-        ];
-        resources.extend(surfaces.resources());
-        // Bindings 3–7 are unused: number the surface bindings by hand.
-        let entries: Vec<wgpu::BindGroupEntry> = resources
-            .into_iter()
-            .enumerate()
-            .map(|(i, resource)| wgpu::BindGroupEntry {
-                binding: if i < 3 { i as u32 } else { i as u32 + 5 },
-                resource,
-            })
-            .collect();
-        groups.push(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("rsm gather"),
-            layout: &bgl,
-            entries: &entries,
-        }));
-        first += step;
-    }
-    Ok(GatherPass { pipeline, groups, size: layout.size() })
+    let mut resources = vec![
+        wgpu::BindingResource::TextureView(&target_view),
+        samples.as_entire_binding(),
+        chunks.resource(),
+    ];
+    resources.extend(surfaces.resources());
+    // Bindings 3–7 are unused: number the surface bindings by hand.
+    let entries: Vec<wgpu::BindGroupEntry> = resources
+        .into_iter()
+        .enumerate()
+        .map(|(i, resource)| wgpu::BindGroupEntry {
+            binding: if i < 3 { i as u32 } else { i as u32 + 5 },
+            resource,
+        })
+        .collect();
+    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("rsm gather"),
+        layout: &bgl,
+        entries: &entries,
+    });
+    Ok(GatherPass { pipeline, group, chunks, size: layout.size() })
 }
 
 impl Gather {
