@@ -148,6 +148,28 @@ pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer 
     })
 }
 
+/// The common screen-space pass: one thread per pixel of the frame over the scene (group 0), the frame
+/// (group 1) and the technique's `group` (group 2), recorded as the profiler pass `name`.
+pub fn frame_pass(
+    fc: &super::FrameContext,
+    profiler: &mut crate::gpu::Profiler,
+    name: &str,
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+) -> Result<(), crate::render::RenderError> {
+    profiler.pass(fc.ctx, name, |encoder| {
+        dispatch_pixels(
+            encoder,
+            name,
+            pipeline,
+            &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, group],
+            fc.frame.width,
+            fc.frame.height,
+        );
+    })?;
+    Ok(())
+}
+
 /// Dispatches one thread per pixel in TILE×TILE workgroups.
 pub fn dispatch_pixels(
     encoder: &mut wgpu::CommandEncoder,

@@ -110,17 +110,7 @@ impl DirectLighting {
 
     /// Records the pass as "direct lighting".
     pub fn render(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        profiler.pass(fc.ctx, "direct lighting", |encoder| {
-            compute::dispatch_pixels(
-                encoder,
-                "direct lighting",
-                &self.pipeline,
-                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.bind_group],
-                fc.frame.width,
-                fc.frame.height,
-            );
-        })?;
-        Ok(())
+        compute::frame_pass(fc, profiler, "direct lighting", &self.pipeline, &self.bind_group)
     }
 }
 

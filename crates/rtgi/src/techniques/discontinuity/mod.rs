@@ -65,17 +65,7 @@ impl DiscontinuityFilter {
 
     /// Records the filter as the pass `name`.
     pub fn render(&self, fc: &FrameContext, profiler: &mut Profiler, name: &str) -> Result<(), RenderError> {
-        profiler.pass(fc.ctx, name, |encoder| {
-            compute::dispatch_pixels(
-                encoder,
-                name,
-                &self.pipeline,
-                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.bind_group],
-                fc.frame.width,
-                fc.frame.height,
-            );
-        })?;
-        Ok(())
+        compute::frame_pass(fc, profiler, name, &self.pipeline, &self.bind_group)
     }
 }
 

@@ -641,17 +641,7 @@ impl Technique for Igi {
         if let Some(filter) = &self.filter {
             filter.render(fc, profiler, "discontinuity filter")?;
         }
-        profiler.pass(fc.ctx, "shading", |encoder| {
-            compute::dispatch_pixels(
-                encoder,
-                "shading",
-                &self.shade,
-                &groups(&self.shade_group),
-                self.width,
-                self.height,
-            );
-        })?;
-        Ok(())
+        compute::frame_pass(fc, profiler, "shading", &self.shade, &self.shade_group)
     }
 
     fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {

@@ -266,16 +266,7 @@ impl Technique for Gather {
         }
         profiler.pass(ctx, "rsm gather", |e| self.gather.record(e, fc, &self.rsm))?;
         if let Some((pipeline, group, fixup, _)) = &self.upsample {
-            profiler.pass(ctx, "upsample", |e| {
-                compute::dispatch_pixels(
-                    e,
-                    "rsm upsample",
-                    pipeline,
-                    &[scene, frame, group],
-                    fc.frame.width,
-                    fc.frame.height,
-                )
-            })?;
+            compute::frame_pass(fc, profiler, "upsample", pipeline, group)?;
             profiler.pass(ctx, "full-resolution fixup", |e| fixup.record(e, fc, &self.rsm))?;
         }
         self.resolve.render(fc, profiler)

@@ -288,17 +288,7 @@ impl Composite {
     }
 
     pub fn render(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        profiler.pass(fc.ctx, "composite", |e| {
-            compute::dispatch_pixels(
-                e,
-                "composite",
-                &self.pipeline,
-                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.bind_group],
-                fc.frame.width,
-                fc.frame.height,
-            )
-        })?;
-        Ok(())
+        compute::frame_pass(fc, profiler, "composite", &self.pipeline, &self.bind_group)
     }
 }
 
