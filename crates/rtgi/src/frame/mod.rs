@@ -292,6 +292,19 @@ pub(crate) fn uniform_layout(device: &wgpu::Device, dynamic: bool) -> wgpu::Bind
 
 /// A pipeline that rasterises the whole scene (one indexed draw of the GPU scene's vertex buffer) with
 /// a less-than depth test and no culling (rtgi shades both sides of every surface).
+/// A colour attachment cleared to transparent black and stored.
+pub(crate) fn cleared_target(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+            store: wgpu::StoreOp::Store,
+        },
+    })
+}
+
 /// A 2D view of one layer of an array texture (a render target of a per-view pass).
 pub(crate) fn layer_view(texture: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
     texture.create_view(&wgpu::TextureViewDescriptor {
@@ -663,21 +676,7 @@ impl FrameResources {
             self.shadows_rendered = true;
         }
         profiler.pass(ctx, "gbuffer", |encoder| {
-            let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = self
-                .gbuffer_targets
-                .iter()
-                .map(|v| {
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: v,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })
-                })
-                .collect();
+            let attachments: Vec<_> = self.gbuffer_targets.iter().map(cleared_target).collect();
             draw_scene(
                 encoder,
                 "gbuffer",

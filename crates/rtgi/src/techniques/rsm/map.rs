@@ -291,20 +291,7 @@ impl ReflectiveShadowMap {
             let layer_view = frame::layer_view;
             for layer in 0..self.views.len() as u32 {
                 let targets = [&self.position, &self.normal, &self.intensity].map(|t| layer_view(t, layer));
-                let colors: Vec<Option<wgpu::RenderPassColorAttachment>> = targets
-                    .iter()
-                    .map(|view| {
-                        Some(wgpu::RenderPassColorAttachment {
-                            view,
-                            depth_slice: None,
-                            resolve_target: None,
-                            ops: wgpu::Operations {
-                                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                                store: wgpu::StoreOp::Store,
-                            },
-                        })
-                    })
-                    .collect();
+                let colors: Vec<_> = targets.iter().map(frame::cleared_target).collect();
                 let depth = layer_view(&self.depth, layer);
                 frame::draw_scene(
                     encoder,

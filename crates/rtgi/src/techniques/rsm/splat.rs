@@ -266,15 +266,7 @@ impl Technique for Splat {
         profiler.pass(ctx, "splat", |e| {
             let mut pass = e.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("splat"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.atlas_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
+                color_attachments: &[crate::frame::cleared_target(&self.atlas_view)],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
