@@ -42,7 +42,7 @@ def render(name, scene, technique, *settings, frames=1, size=SIZE):
     exr, stats = OUT / f"{name}.exr", OUT / f"{name}.json"
     extra = [x for s in settings for x in ("--set", s)]
     sh(RTGI, "render", "--scene", scene, "--technique", technique, "--size", size, "--frames", frames,
-       *extra, "--out", exr, "--stats", stats)
+       *extra, "--timing", "passes", "--out", exr, "--stats", stats)
     return exr, json.loads(stats.read_text())
 
 

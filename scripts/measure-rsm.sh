@@ -40,7 +40,7 @@ render() { # out scene technique frames settings...
     local set=()
     for s in "$@"; do set+=(--set "$s"); done
     "$RTGI" render --scene "$scene" --technique "$technique" --size 256x256 --frames "$frames" \
-        --out "$OUT/$out.exr" --stats "$OUT/$out.json" "${set[@]}" >/dev/null 2>&1
+        --timing passes --out "$OUT/$out.exr" --stats "$OUT/$out.json" "${set[@]}" >/dev/null 2>&1
 }
 
 cmp_json() { "$RTGI" compare "$1" "$2" --json "${@:3}"; }

@@ -9,16 +9,23 @@ struct Entry {
     name: &'static str,
     description: &'static str,
     params: &'static [ParamSpec],
+    /// How a technique handles motion (scenes have none).
+    motion: Option<&'static str>,
 }
 
 pub fn run() -> anyhow::Result<()> {
     let scenes: Vec<Entry> = rtgi::scene::builtin::list()
         .iter()
-        .map(|s| Entry { name: s.name, description: s.description, params: s.params })
+        .map(|s| Entry { name: s.name, description: s.description, params: s.params, motion: None })
         .collect();
     let techniques: Vec<Entry> = rtgi::techniques::registry()
         .iter()
-        .map(|t| Entry { name: t.name, description: t.description, params: t.params })
+        .map(|t| Entry {
+            name: t.name,
+            description: t.description,
+            params: t.params,
+            motion: Some(t.motion.describe()),
+        })
         .collect();
 
     let mut text = String::new();
@@ -46,6 +53,9 @@ fn section(out: &mut String, title: &str, entries: &[Entry]) {
     let kind_width = params().map(|p| p.kind.to_string().len()).max().unwrap_or(0);
     for entry in entries {
         let _ = writeln!(out, "  {:<name_width$}  {}", entry.name, entry.description);
+        if let Some(motion) = entry.motion {
+            let _ = writeln!(out, "      motion: {motion}");
+        }
         for p in entry.params {
             let setting = format!("{}={}", p.name, p.default);
             let kind = p.kind.to_string();

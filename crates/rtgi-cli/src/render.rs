@@ -6,10 +6,11 @@ use std::path::PathBuf;
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use rtgi::gpu::TimingMode;
 use rtgi::gpu::{GpuContext, GpuOptions};
 use rtgi::image::{FileFormat, ToneMap};
 use rtgi::params::{parse_setting, parse_size};
-use rtgi::render::{RenderSettings, render};
+use rtgi::renderer::{Aov, Renderer, RendererSettings};
 
 use crate::scene_spec::SceneSpec;
 use crate::{create_parent, print_warnings};
@@ -25,15 +26,39 @@ pub struct RenderArgs {
     /// Image size, WxH.
     #[arg(long, default_value = "256x256", value_name = "WxH")]
     size: String,
-    /// Output image: .png (tone-mapped, 8-bit sRGB) or .exr (linear radiance).
+    /// Output image: .png (tone-mapped, 8-bit sRGB) or .exr (linear radiance). A printf-style frame
+    /// number (`%04d`, `%d`) makes it an image sequence: one image per frame, e.g. 'frame_%04d.exr'.
     #[arg(long, default_value = "out.png", value_name = "FILE")]
     out: PathBuf,
     /// Technique parameter; repeat for several.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Frames to run (progressive techniques accumulate, temporal ones converge).
+    /// Frames to run. A still (no frame number in --out) accumulates them at --time (progressive
+    /// techniques average, temporal ones converge); a sequence writes one image per frame, frame k at
+    /// time --time + k / --fps.
     #[arg(long, default_value_t = 1)]
     frames: u32,
+    /// Scene time in seconds of the still, or of the first frame of a sequence.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "SECONDS")]
+    time: f32,
+    /// Frames per second of a sequence (the time step between its frames).
+    #[arg(long, default_value_t = 30.0, value_name = "F")]
+    fps: f32,
+    /// Renderer steps per frame of a sequence, all at the frame's time (progressive techniques average
+    /// them: `--accumulate 16` gives every frame 16 frames' samples).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    accumulate: u32,
+    /// Play this animation of the scene (name or index; default: the first).
+    #[arg(long, value_name = "NAME")]
+    animation: Option<String>,
+    /// Also write a G-buffer channel (depth, normal, albedo, emission) of the last frame as EXR;
+    /// repeatable. With a frame number in FILE, one per frame of a sequence.
+    #[arg(long = "aov", value_name = "NAME=FILE.exr")]
+    aov: Vec<String>,
+    /// How passes are submitted and timed: `frame` (one command encoder per frame, per-pass GPU
+    /// timestamps) or `passes` (one submission per pass, waited for: per-pass wall times, slower).
+    #[arg(long, default_value = "frame", value_name = "MODE")]
+    timing: String,
     /// Also write the render statistics as JSON.
     #[arg(long, value_name = "FILE.json")]
     stats: Option<PathBuf>,
@@ -61,6 +86,30 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("--exposure '{}' is not a finite number of stops", args.exposure);
     }
     FileFormat::for_writing(&args.out).context("--out")?;
+    if !args.time.is_finite() {
+        bail!("--time '{}' is not a finite number of seconds", args.time);
+    }
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        bail!("--fps '{}' must be a positive number of frames per second", args.fps);
+    }
+    if args.accumulate == 0 {
+        bail!("--accumulate must be at least 1");
+    }
+    let timing: TimingMode = args.timing.parse().map_err(|e| anyhow!("--timing {e}"))?;
+    let aovs = args
+        .aov
+        .iter()
+        .map(|a| {
+            let (name, file) =
+                a.split_once('=').ok_or_else(|| anyhow!("--aov '{a}': expected NAME=FILE.exr"))?;
+            let aov: Aov = name.parse().map_err(|e| anyhow!("--aov {e}"))?;
+            let file = PathBuf::from(file);
+            if FileFormat::for_writing(&file).ok() != Some(FileFormat::Exr) {
+                bail!("--aov {name}: '{}' must be an .exr file (AOVs are linear data)", file.display());
+            }
+            Ok((aov, file))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let technique_settings = args
         .set
         .iter()
@@ -71,6 +120,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     rtgi::techniques::resolve(&args.technique, &technique_settings).map_err(anyhow::Error::msg)?;
 
     let mut scene = scene_spec.load()?;
+    if let Some(name) = &args.animation {
+        scene.select_animation(name).context("--animation")?;
+    }
     if let Some(path) = &args.environment {
         let map =
             rtgi::scene::EnvironmentMap::load(path, args.environment_intensity).context("--environment")?;
@@ -85,36 +137,53 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
     })?;
 
-    let settings = RenderSettings {
-        technique: args.technique.clone(),
-        technique_settings,
-        width,
-        height,
-        frames: args.frames,
-    };
-    let bar = progress_bar(args.frames);
-    let mut progress = |done: u32, _total: u32| {
-        if let Some(bar) = &bar {
-            bar.set_position(u64::from(done));
+    let sequence = FramePattern::parse(&args.out);
+    let mut renderer = Renderer::new(
+        &gpu,
+        scene,
+        &RendererSettings { technique: args.technique.clone(), technique_settings, width, height, timing },
+    )?;
+    let steps = if sequence.is_some() { args.frames * args.accumulate } else { args.frames };
+    let bar = progress_bar(steps);
+    let result = (|| -> anyhow::Result<()> {
+        renderer.set_time(args.time)?;
+        for frame in 0..args.frames {
+            if let Some(pattern) = &sequence {
+                renderer.set_time(args.time + frame as f32 / args.fps)?;
+                for _ in 0..args.accumulate {
+                    renderer.step()?;
+                }
+                let path = pattern.path(frame);
+                create_parent(&path)?;
+                renderer.read_image()?.write(&path, &ToneMap { exposure_ev: args.exposure })?;
+                write_aovs(&mut renderer, &aovs, Some(frame))?;
+            } else {
+                renderer.step()?;
+            }
+            if let Some(bar) = &bar {
+                bar.set_position(u64::from((frame + 1) * steps / args.frames));
+            }
         }
-    };
-    let result = render(&gpu, &scene, &settings, &mut progress);
+        Ok(())
+    })();
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
-    let output = result?;
-    for warning in &output.stats.warnings {
+    result?;
+    if sequence.is_none() {
+        create_parent(&args.out)?;
+        renderer.read_image()?.write(&args.out, &ToneMap { exposure_ev: args.exposure })?;
+        write_aovs(&mut renderer, &aovs, None)?;
+    }
+    let stats = renderer.stats()?;
+    for warning in &stats.warnings {
         eprintln!("warning: {warning}");
     }
-
-    create_parent(&args.out)?;
-    output.image.write(&args.out, &ToneMap { exposure_ev: args.exposure })?;
     if let Some(path) = &args.stats {
-        let json = serde_json::to_string_pretty(&output.stats).context("serialising the statistics")?;
+        let json = serde_json::to_string_pretty(&stats).context("serialising the statistics")?;
         create_parent(path)?;
         std::fs::write(path, json + "\n").with_context(|| format!("{}: cannot write", path.display()))?;
     }
-    let stats = &output.stats;
     println!(
         "wrote {} ({}x{}, {} frame{} of {}, {:.1} ms on {})",
         args.out.display(),
@@ -127,6 +196,45 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         stats.adapter.name
     );
     Ok(())
+}
+
+/// Writes each requested AOV; `frame` numbers the files of a sequence.
+fn write_aovs(renderer: &mut Renderer, aovs: &[(Aov, PathBuf)], frame: Option<u32>) -> anyhow::Result<()> {
+    for (aov, path) in aovs {
+        let path = match (FramePattern::parse(path), frame) {
+            (Some(pattern), Some(k)) => pattern.path(k),
+            _ => path.clone(),
+        };
+        create_parent(&path)?;
+        renderer.read_aov(*aov)?.write(&path, &ToneMap::default())?;
+    }
+    Ok(())
+}
+
+/// An output path with a printf-style frame number: `prefix%0Nd suffix` or `prefix%dsuffix`.
+struct FramePattern {
+    prefix: String,
+    width: usize,
+    suffix: String,
+}
+
+impl FramePattern {
+    fn parse(path: &std::path::Path) -> Option<FramePattern> {
+        let text = path.to_str()?;
+        let start = text.find('%')?;
+        let rest = &text[start + 1..];
+        let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+        let after = rest[digits.len()..].strip_prefix('d')?;
+        Some(FramePattern {
+            prefix: text[..start].to_string(),
+            width: digits.parse().unwrap_or(0),
+            suffix: after.to_string(),
+        })
+    }
+
+    fn path(&self, frame: u32) -> PathBuf {
+        PathBuf::from(format!("{}{:0width$}{}", self.prefix, frame, self.suffix, width = self.width))
+    }
 }
 
 /// A bar only where someone watches it: scripts and CI logs get no control characters.

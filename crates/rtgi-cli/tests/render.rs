@@ -49,30 +49,67 @@ fn same_command_twice_gives_identical_exr() {
 }
 
 /// `--stats` writes the documented keys, and per-pass times either come from reliable timestamps or the
-/// file says why they do not.
+/// file says why they do not. `--timing frame` (the default) has per-frame wall times and per-pass GPU
+/// times; `--timing passes` adds a wall time per pass.
 #[test]
 fn stats_json_has_the_documented_keys() {
     let dir = tempfile::tempdir().expect("temp dir");
-    ok(&rtgi(
-        dir.path(),
-        &["render", "--scene", "cornell-spot", "--size", "48x32", "--out", "x.png", "--stats", "s.json"],
-    ));
-    let text = std::fs::read_to_string(dir.path().join("s.json")).expect("stats file");
-    let v: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
-    for key in ["scene", "technique", "width", "height", "adapter", "wall_ms", "passes", "timestamps"] {
-        assert!(v.get(key).is_some(), "missing {key} in {text}");
+    for timing in ["frame", "passes"] {
+        ok(&rtgi(
+            dir.path(),
+            &[
+                "render",
+                "--scene",
+                "cornell-spot",
+                "--size",
+                "48x32",
+                "--frames",
+                "3",
+                "--timing",
+                timing,
+                "--out",
+                "x.png",
+                "--stats",
+                "s.json",
+            ],
+        ));
+        let text = std::fs::read_to_string(dir.path().join("s.json")).expect("stats file");
+        let v: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
+        for key in [
+            "scene",
+            "technique",
+            "width",
+            "height",
+            "adapter",
+            "wall_ms",
+            "passes",
+            "timestamps",
+            "timing",
+            "frame_wall",
+            "renderer",
+            "memory",
+        ] {
+            assert!(v.get(key).is_some(), "missing {key} in {text}");
+        }
+        assert_eq!(v["scene"], "cornell-spot");
+        assert_eq!(v["width"], 48);
+        assert_eq!(v["timing"], timing);
+        // Frames 2 and 3 are the steady ones.
+        assert_eq!(v["frame_wall"]["count"], 2, "{text}");
+        assert!(v["frame_wall"]["p95_ms"].as_f64().is_some_and(|t| t > 0.0), "{text}");
+        assert_eq!(v["renderer"]["scene_uploads"], 1, "{text}");
+        let passes = v["passes"].as_array().expect("passes");
+        assert!(passes.iter().any(|p| p["name"] == "shadow maps" && p["calls"] == 1), "{text}");
+        assert!(passes.iter().any(|p| p["name"] == "gbuffer" && p["calls"] == 3), "{text}");
+        let reliable = v["timestamps"] == "reliable";
+        for p in passes {
+            assert_eq!(p["gpu_ms"].is_number(), reliable, "{text}");
+            let walled = p["wall_ms"].as_f64().is_some_and(|t| t >= 0.0);
+            assert_eq!(walled, timing == "passes", "{text}");
+        }
+        let png = image_size(&dir.path().join("x.png"));
+        assert_eq!(png, (48, 32));
     }
-    assert_eq!(v["scene"], "cornell-spot");
-    assert_eq!(v["width"], 48);
-    let passes = v["passes"].as_array().expect("passes");
-    assert!(passes.iter().any(|p| p["name"] == "shadow maps"), "{text}");
-    let reliable = v["timestamps"] == "reliable";
-    for p in passes {
-        assert_eq!(p["gpu_ms"].is_number(), reliable, "{text}");
-        assert!(p["wall_ms"].as_f64().is_some_and(|t| t >= 0.0));
-    }
-    let png = image_size(&dir.path().join("x.png"));
-    assert_eq!(png, (48, 32));
 }
 
 fn image_size(path: &Path) -> (u32, u32) {

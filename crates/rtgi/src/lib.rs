@@ -1,7 +1,7 @@
 //! rtgi: a real-time global illumination laboratory.
 //!
 //! Headless first: a [`scene::Scene`] goes in, a linear HDR radiance image and statistics come out
-//! ([`render::render`]).
+//! ([`render::render`]), or frame by frame through the persistent [`renderer::Renderer`].
 
 pub mod error;
 pub mod frame;
@@ -11,6 +11,7 @@ pub mod metrics;
 pub mod params;
 pub mod reference;
 pub mod render;
+pub mod renderer;
 pub mod scene;
 pub mod sh;
 pub mod shaders;

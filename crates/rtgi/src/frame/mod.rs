@@ -5,26 +5,87 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
-use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, shadow_layer_count};
 use crate::gpu::{GpuContext, GpuError, GpuScene, Profiler};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
-use crate::scene::Scene;
+use crate::scene::{Aabb, Camera, Scene};
 use crate::shaders::{self, Defines};
 
+/// The per-frame uniforms of bind group 1 (`FrameUniforms` in `common/frame.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct FrameUniforms {
     pub view_proj: [[f32; 4]; 4],
     pub inv_view_proj: [[f32; 4]; 4],
+    /// The previous frame's view-projection (equal to `view_proj` on the first frame and after a cut).
+    pub prev_view_proj: [[f32; 4]; 4],
     pub camera_position: [f32; 3],
-    pub frame_index: u32,
+    /// Frames rendered since the renderer was created: the dimension of per-frame random numbers.
+    pub frame_counter: u32,
     pub size: [u32; 2],
     pub seed: u32,
     pub shadow_filter_radius: u32,
     pub shadow_depth_bias: f32,
     pub shadow_normal_offset: f32,
     pub shadow_map_size: f32,
-    pub _pad0: f32,
+    /// Frames accumulated into the current image since the view or the scene last changed: progressive
+    /// techniques average over it and restart at 0.
+    pub sample_index: u32,
+    /// Sub-pixel offset of the primary rays, in pixels (0 unless a technique asks for jitter).
+    pub jitter: [f32; 2],
+    /// Scene time in seconds and the time since the previous frame.
+    pub time: f32,
+    pub delta_time: f32,
+    /// 1 when the previous frame's history (screen-space buffers, reprojection) may be reused; 0 after
+    /// a camera cut, a parameter change, a resize or on the first frame.
+    pub history_valid: u32,
+    pub _pad: [u32; 3],
+}
+
+/// What a frame looks at and when: the per-frame view data every technique receives
+/// ([`crate::techniques::FrameContext::view`]) and the renderer writes into [`FrameUniforms`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameView {
+    pub camera: Camera,
+    pub view_proj: Mat4,
+    pub prev_view_proj: Mat4,
+    pub time: f32,
+    pub delta_time: f32,
+    pub jitter: glam::Vec2,
+    pub frame_counter: u32,
+    pub sample_index: u32,
+    pub history_valid: bool,
+}
+
+impl FrameView {
+    fn write_into(&self, u: &mut FrameUniforms) {
+        u.view_proj = self.view_proj.to_cols_array_2d();
+        u.inv_view_proj = self.view_proj.inverse().to_cols_array_2d();
+        u.prev_view_proj = self.prev_view_proj.to_cols_array_2d();
+        u.camera_position = self.camera.position.into();
+        u.frame_counter = self.frame_counter;
+        u.sample_index = self.sample_index;
+        u.jitter = self.jitter.into();
+        u.time = self.time;
+        u.delta_time = self.delta_time;
+        u.history_valid = u32::from(self.history_valid);
+    }
+
+    /// The first frame of a still: frame 0, sample 0, no history.
+    pub fn still(camera: Camera, width: u32, height: u32) -> Self {
+        let view_proj = camera.view_projection(width as f32 / height as f32);
+        FrameView {
+            camera,
+            view_proj,
+            prev_view_proj: view_proj,
+            time: 0.0,
+            delta_time: 0.0,
+            jitter: glam::Vec2::ZERO,
+            frame_counter: 0,
+            sample_index: 0,
+            history_valid: false,
+        }
+    }
 }
 
 #[repr(C)]
@@ -40,6 +101,16 @@ struct CameraUniforms {
     view_proj: [[f32; 4]; 4],
     position: [f32; 3],
     _pad: f32,
+}
+
+impl CameraUniforms {
+    fn of(view: &FrameView) -> Self {
+        CameraUniforms {
+            view_proj: view.view_proj.to_cols_array_2d(),
+            position: view.camera.position.into(),
+            _pad: 0.0,
+        }
+    }
 }
 
 /// Shadow-map parameters, shared by every technique that uses shadow maps.
@@ -119,20 +190,24 @@ pub struct FrameResources {
     pub width: u32,
     pub height: u32,
     pub uniforms: FrameUniforms,
+    /// The view of the frame being rendered (the last one set).
+    pub view: FrameView,
     pub uniform_buffer: wgpu::Buffer,
     pub gbuffer: GBuffer,
     pub shadow_layers: u32,
     pub shadow_views: Vec<ShadowView>,
-    /// Lights with their shadow layers assigned.
-    pub lights: Vec<GpuLight>,
+    pub shadow_settings: Option<ShadowSettings>,
     pub bind_group_layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
+    camera_buffer: wgpu::Buffer,
     camera_bind_group: wgpu::BindGroup,
     gbuffer_pipeline: wgpu::RenderPipeline,
     shadow_maps: wgpu::Texture,
-    shadow_bind_group: wgpu::BindGroup,
+    shadow_view_buffer: wgpu::Buffer,
+    shadow_slots: ViewSlots,
     shadow_pipeline: Option<wgpu::RenderPipeline>,
-    shadows_rendered: bool,
+    /// The [`GpuScene::lights_version`] and geometry the shadow maps were rendered for.
+    shadows_rendered: Option<(u64, u64)>,
     /// Render-target views of the G-buffer (in `GBufferOut` order) and its depth, made once.
     gbuffer_targets: Vec<wgpu::TextureView>,
     gbuffer_depth: wgpu::TextureView,
@@ -157,9 +232,9 @@ fn any_perpendicular(d: Vec3) -> Vec3 {
     if d.y.abs() < 0.99 { Vec3::Y } else { Vec3::Z }
 }
 
-/// Computes the shadow views of every light and assigns shadow layers (point lights take six).
-pub fn shadow_views(lights: &mut [GpuLight], scene: &Scene, size: u32) -> Vec<ShadowView> {
-    let bounds = scene.bounds();
+/// The shadow views of every light, at the layers the lights carry (point lights take six), framing
+/// `bounds` (the scene seen from the light).
+pub fn shadow_views(lights: &[GpuLight], bounds: Aabb, size: u32) -> Vec<ShadowView> {
     let center = bounds.center();
     let radius = (bounds.extent().length() * 0.5).max(1e-3);
     let mut views = Vec::new();
@@ -174,8 +249,11 @@ pub fn shadow_views(lights: &mut [GpuLight], scene: &Scene, size: u32) -> Vec<Sh
             params: [2.0 * (fov * 0.5).tan() / size as f32, 0.0, near, far],
         }
     };
-    for light in lights.iter_mut() {
-        light.shadow_layer = views.len() as i32;
+    for light in lights {
+        debug_assert_eq!(
+            light.shadow_layer,
+            if shadow_layer_count(light.kind) > 0 { views.len() as i32 } else { -1 }
+        );
         let pos = Vec3::from(light.position);
         let dir = Vec3::from(light.direction);
         match light.kind {
@@ -206,7 +284,7 @@ pub fn shadow_views(lights: &mut [GpuLight], scene: &Scene, size: u32) -> Vec<Sh
                     params: [2.0 * radius / size as f32, 1.0, 0.0, 4.0 * radius],
                 });
             }
-            _ => light.shadow_layer = -1,
+            _ => {}
         }
     }
     views
@@ -315,37 +393,54 @@ pub(crate) fn layer_view(texture: &wgpu::Texture, layer: u32) -> wgpu::TextureVi
     })
 }
 
-/// `views` one per [`SHADOW_VIEW_STRIDE`]-byte slot of a uniform buffer, bound (with `layout` from
-/// [`uniform_layout`]`(device, true)`) for a pass per view selected by the dynamic offset
+/// Per-view uniforms, one per [`SHADOW_VIEW_STRIDE`]-byte slot of a uniform buffer, bound (with
+/// `layout` from [`uniform_layout`]`(device, true)`) for a pass per view selected by the dynamic offset
 /// `index * SHADOW_VIEW_STRIDE`.
-pub(crate) fn view_slots<T: bytemuck::Pod>(
-    device: &wgpu::Device,
-    label: &str,
-    layout: &wgpu::BindGroupLayout,
-    views: &[T],
-) -> wgpu::BindGroup {
+pub(crate) struct ViewSlots {
+    buffer: wgpu::Buffer,
+    pub bind_group: wgpu::BindGroup,
+}
+
+fn slot_bytes<T: bytemuck::Pod>(views: &[T]) -> Vec<u8> {
     let stride = SHADOW_VIEW_STRIDE as usize;
     let mut slots = vec![0u8; stride * views.len().max(1)];
     for (i, v) in views.iter().enumerate() {
         slots[i * stride..i * stride + size_of::<T>()].copy_from_slice(bytemuck::bytes_of(v));
     }
-    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: &slots,
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &[wgpu::BindGroupEntry {
-            binding: 0,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &buffer,
-                offset: 0,
-                size: wgpu::BufferSize::new(size_of::<T>() as u64),
-            }),
-        }],
-    })
+    slots
+}
+
+impl ViewSlots {
+    pub(crate) fn new<T: bytemuck::Pod>(
+        device: &wgpu::Device,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        views: &[T],
+    ) -> Self {
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &slot_bytes(views),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &buffer,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(size_of::<T>() as u64),
+                }),
+            }],
+        });
+        ViewSlots { buffer, bind_group }
+    }
+
+    /// Rewrites the views in place (as many as at creation).
+    pub(crate) fn write<T: bytemuck::Pod>(&self, ctx: &GpuContext, views: &[T]) {
+        ctx.queue.write_buffer(&self.buffer, 0, &slot_bytes(views));
+    }
 }
 
 pub(crate) fn scene_raster_pipeline(
@@ -430,19 +525,18 @@ impl FrameResources {
                 "image size {width}x{height} exceeds the device's max_texture_dimension_2d of {max}"
             )));
         }
-        let aspect = width as f32 / height as f32;
-        let cam = scene.camera;
-        let view_proj = cam.view_projection(aspect);
-
-        let mut lights = gpu_scene.lights.clone();
+        let view = FrameView::still(scene.camera, width, height);
         let settings = shadows.unwrap_or(ShadowSettings {
             size: 1,
             filter_radius: 0,
             depth_bias: 0.0,
             normal_offset: 0.0,
         });
-        let views =
-            if shadows.is_some() { shadow_views(&mut lights, scene, settings.size) } else { Vec::new() };
+        let views = if shadows.is_some() {
+            shadow_views(&gpu_scene.lights, scene.bounds(), settings.size)
+        } else {
+            Vec::new()
+        };
         let shadow_layers = views.len().max(1) as u32;
         let max_layers = ctx.limits().max_texture_array_layers;
         if shadow_layers > max_layers || settings.size > max {
@@ -452,21 +546,15 @@ impl FrameResources {
                 settings.size
             )));
         }
-        ctx.queue.write_buffer(&gpu_scene.light_buffer, 0, bytemuck::cast_slice(&lights));
-
-        let uniforms = FrameUniforms {
-            view_proj: view_proj.to_cols_array_2d(),
-            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
-            camera_position: cam.position.into(),
-            frame_index: 0,
+        let mut uniforms = FrameUniforms {
             size: [width, height],
-            seed: 0,
             shadow_filter_radius: settings.filter_radius,
             shadow_depth_bias: settings.depth_bias,
             shadow_normal_offset: settings.normal_offset,
             shadow_map_size: settings.size as f32,
-            _pad0: 0.0,
+            ..FrameUniforms::zeroed()
         };
+        view.write_into(&mut uniforms);
         let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("frame uniforms"),
             contents: bytemuck::bytes_of(&uniforms),
@@ -502,7 +590,7 @@ impl FrameResources {
         let shadow_view_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("shadow views"),
             contents: bytemuck::cast_slice(&shadow_view_data),
-            usage: wgpu::BufferUsages::STORAGE,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
         let comparison = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("shadow comparison"),
@@ -521,7 +609,7 @@ impl FrameResources {
                 .collect();
         let gbuffer_depth = gbuffer.depth.create_view(&Default::default());
         let bind_group_layout = frame_layout(device);
-        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let texture_view = |t: &wgpu::Texture| t.create_view(&Default::default());
         let shadow_array_view = shadow_maps.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
@@ -533,23 +621,23 @@ impl FrameResources {
                 wgpu::BindGroupEntry { binding: 0, resource: uniform_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.albedo)),
+                    resource: wgpu::BindingResource::TextureView(&texture_view(&gbuffer.albedo)),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.normal)),
+                    resource: wgpu::BindingResource::TextureView(&texture_view(&gbuffer.normal)),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.material)),
+                    resource: wgpu::BindingResource::TextureView(&texture_view(&gbuffer.material)),
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.emission)),
+                    resource: wgpu::BindingResource::TextureView(&texture_view(&gbuffer.emission)),
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
-                    resource: wgpu::BindingResource::TextureView(&view(&gbuffer.distance)),
+                    resource: wgpu::BindingResource::TextureView(&texture_view(&gbuffer.distance)),
                 },
                 wgpu::BindGroupEntry {
                     binding: 6,
@@ -561,11 +649,7 @@ impl FrameResources {
         });
 
         // G-buffer pipeline.
-        let camera = CameraUniforms {
-            view_proj: view_proj.to_cols_array_2d(),
-            position: cam.position.into(),
-            _pad: 0.0,
-        };
+        let camera = CameraUniforms::of(&view);
         let camera_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
             contents: bytemuck::bytes_of(&camera),
@@ -578,7 +662,7 @@ impl FrameResources {
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: camera_buffer.as_entire_binding() }],
         });
         let gbuffer_module =
-            shaders::create_module(device, "gbuffer", include_str!("gbuffer.wgsl"), &Defines::new())
+            shaders::create_module(ctx, "gbuffer", include_str!("gbuffer.wgsl"), &Defines::new())
                 .map_err(|e| GpuError::Other(e.to_string()))?;
         let gbuffer_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("gbuffer"),
@@ -604,13 +688,12 @@ impl FrameResources {
         // Shadow pipeline (only when shadow maps are in use).
         let shadow_layout = uniform_layout(device, true);
         // The same views again, for the dynamic-offset uniform of the depth pass.
-        let shadow_bind_group = view_slots(device, "shadow view", &shadow_layout, &shadow_view_data);
+        let shadow_slots = ViewSlots::new(device, "shadow view", &shadow_layout, &shadow_view_data);
         let shadow_pipeline = if views.is_empty() {
             None
         } else {
-            let module =
-                shaders::create_module(device, "shadow", include_str!("shadow.wgsl"), &Defines::new())
-                    .map_err(|e| GpuError::Other(e.to_string()))?;
+            let module = shaders::create_module(ctx, "shadow", include_str!("shadow.wgsl"), &Defines::new())
+                .map_err(|e| GpuError::Other(e.to_string()))?;
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("shadow"),
                 bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&shadow_layout)],
@@ -623,39 +706,78 @@ impl FrameResources {
             width,
             height,
             uniforms,
+            view,
             uniform_buffer,
             gbuffer,
             shadow_layers,
             shadow_views: views,
-            lights,
+            shadow_settings: shadows,
             bind_group_layout,
             bind_group,
+            camera_buffer,
             camera_bind_group,
             gbuffer_pipeline,
             shadow_maps,
-            shadow_bind_group,
+            shadow_view_buffer,
+            shadow_slots,
             shadow_pipeline,
-            shadows_rendered: false,
+            shadows_rendered: None,
             gbuffer_targets,
             gbuffer_depth,
         })
     }
 
-    /// Sets the frame index and seed for this frame.
-    pub fn begin_frame(&mut self, ctx: &GpuContext, frame_index: u32, seed: u32) {
-        self.uniforms.frame_index = frame_index;
+    /// Writes this frame's view data (camera, previous camera, counters, time, history) and `seed`.
+    pub fn set_view(&mut self, ctx: &GpuContext, view: &FrameView, seed: u32) {
+        view.write_into(&mut self.uniforms);
+        self.view = *view;
         self.uniforms.seed = seed;
         ctx.queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&self.uniforms));
+        ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(&CameraUniforms::of(view)));
     }
 
-    /// Renders the shadow maps (once: scene and lights are static) and the G-buffer.
+    /// Changes the shadow filter, bias and normal offset (uniforms only). The map size and whether
+    /// there are shadow maps at all are fixed at creation: a change of those needs new frame resources.
+    pub fn set_shadow_settings(&mut self, settings: ShadowSettings) -> Result<(), GpuError> {
+        let same_maps = match self.shadow_settings {
+            Some(current) => current.size == settings.size,
+            None => false,
+        };
+        if !same_maps {
+            return Err(GpuError::Other(
+                "the shadow-map size changed: the frame resources must be rebuilt".into(),
+            ));
+        }
+        self.shadow_settings = Some(settings);
+        self.uniforms.shadow_filter_radius = settings.filter_radius;
+        self.uniforms.shadow_depth_bias = settings.depth_bias;
+        self.uniforms.shadow_normal_offset = settings.normal_offset;
+        Ok(())
+    }
+
+    /// Re-aims the shadow views at the lights of `gpu_scene` framing `bounds` (after lights or geometry
+    /// moved); the maps re-render on the next [`Self::render_inputs`].
+    pub fn update_shadow_views(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene, bounds: Aabb) {
+        let Some(settings) = self.shadow_settings else { return };
+        let views = shadow_views(&gpu_scene.lights, bounds, settings.size);
+        if views.is_empty() {
+            return;
+        }
+        ctx.queue.write_buffer(&self.shadow_view_buffer, 0, bytemuck::cast_slice(&views));
+        self.shadow_slots.write(ctx, &views);
+        self.shadow_views = views;
+        self.shadows_rendered = None;
+    }
+
+    /// Renders the shadow maps (when the lights changed since they were last rendered) and the G-buffer.
     pub fn render_inputs(
         &mut self,
         ctx: &GpuContext,
         scene: &GpuScene,
         profiler: &mut Profiler,
     ) -> Result<(), GpuError> {
-        if !self.shadows_rendered {
+        let state = (scene.lights_version, scene.geometry_version);
+        if self.shadows_rendered != Some(state) {
             if let Some(pipeline) = &self.shadow_pipeline {
                 profiler.pass(ctx, "shadow maps", |encoder| {
                     for layer in 0..self.shadow_views.len() as u32 {
@@ -668,12 +790,12 @@ impl FrameResources {
                             &view,
                             pipeline,
                             scene,
-                            (&self.shadow_bind_group, &[offset]),
+                            (&self.shadow_slots.bind_group, &[offset]),
                         );
                     }
                 })?;
             }
-            self.shadows_rendered = true;
+            self.shadows_rendered = Some(state);
         }
         profiler.pass(ctx, "gbuffer", |encoder| {
             let attachments: Vec<_> = self.gbuffer_targets.iter().map(cleared_target).collect();

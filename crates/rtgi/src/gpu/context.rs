@@ -29,6 +29,27 @@ pub struct AdapterSummary {
     pub driver_info: String,
 }
 
+/// Memory in use: the process's resident set and wgpu's own count of GPU objects and bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct MemoryReport {
+    /// Resident set size of the process (Linux `/proc/self/statm`; `None` elsewhere).
+    pub rss_bytes: Option<u64>,
+    pub gpu_buffers: u64,
+    pub gpu_textures: u64,
+    pub gpu_bind_groups: u64,
+    pub gpu_buffer_bytes: u64,
+    pub gpu_texture_bytes: u64,
+    /// Device memory allocations (wgpu suballocates, so this is not one per resource).
+    pub gpu_allocations: u64,
+}
+
+fn resident_set_bytes() -> Option<u64> {
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: u64 = statm.split_whitespace().nth(1)?.parse().ok()?;
+    // The page size of every Linux target rtgi runs on; `statm` counts pages.
+    Some(pages * 4096)
+}
+
 /// Options for [`GpuContext::new`].
 #[derive(Clone, Debug, Default)]
 pub struct GpuOptions {
@@ -36,7 +57,8 @@ pub struct GpuOptions {
     pub adapter_filter: Option<String>,
 }
 
-/// The device every rtgi pass runs on.
+/// The device every rtgi pass runs on. Cloning is cheap and shares the device.
+#[derive(Clone)]
 pub struct GpuContext {
     pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
@@ -45,6 +67,9 @@ pub struct GpuContext {
     /// Timestamp queries inside command encoders are available (their values may still be wrong; see
     /// [`crate::gpu::profiler`]).
     pub has_timestamps: bool,
+    /// Shader modules compiled on this device (each feeds one pipeline): the renderer reports how many
+    /// a run created, so per-frame recompilation shows.
+    shader_compilations: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
 
 fn device_rank(t: wgpu::DeviceType) -> u32 {
@@ -120,7 +145,38 @@ impl GpuContext {
             trace: wgpu::Trace::Off,
         }))
         .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
-        Ok(GpuContext { adapter, device, queue, summary, has_timestamps })
+        Ok(GpuContext {
+            adapter,
+            device,
+            queue,
+            summary,
+            has_timestamps,
+            shader_compilations: Default::default(),
+        })
+    }
+
+    pub(crate) fn count_shader_compilation(&self) {
+        self.shader_compilations.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Shader modules compiled on this device so far (by every user of this context and its clones).
+    pub fn shader_compilations(&self) -> u64 {
+        self.shader_compilations.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Process and GPU memory now (wgpu's counters count live objects and their bytes).
+    pub fn memory_report(&self) -> MemoryReport {
+        let hal = self.device.get_internal_counters().hal;
+        let count = |value: isize| value.max(0) as u64;
+        MemoryReport {
+            rss_bytes: resident_set_bytes(),
+            gpu_buffers: count(hal.buffers.read()),
+            gpu_textures: count(hal.textures.read()),
+            gpu_bind_groups: count(hal.bind_groups.read()),
+            gpu_buffer_bytes: count(hal.buffer_memory.read()),
+            gpu_texture_bytes: count(hal.texture_memory.read()),
+            gpu_allocations: count(hal.memory_allocations.read()),
+        }
     }
 
     pub fn limits(&self) -> wgpu::Limits {

@@ -38,7 +38,7 @@ pub fn run_kernel(
         mapped_at_creation: false,
     });
     let module =
-        create_module(device, name, source, &Defines::new()).map_err(|e| GpuError::Other(e.to_string()))?;
+        create_module(ctx, name, source, &Defines::new()).map_err(|e| GpuError::Other(e.to_string()))?;
     // An explicit layout: the automatic one would drop a binding the kernel does not read.
     let entry = |binding, read_only| wgpu::BindGroupLayoutEntry {
         binding,

@@ -8,6 +8,6 @@ pub mod readback;
 pub mod scene;
 
 pub use bvh::{Bvh, GpuBvh};
-pub use context::{AdapterSummary, GpuContext, GpuError, GpuOptions};
-pub use profiler::Profiler;
+pub use context::{AdapterSummary, GpuContext, GpuError, GpuOptions, MemoryReport};
+pub use profiler::{PassTiming, Profiler, TimeSummary, TimingMode};
 pub use scene::GpuScene;

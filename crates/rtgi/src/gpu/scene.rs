@@ -120,7 +120,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let device = &ctx.device;
     let count = (SKY_BAKE_WIDTH * SKY_BAKE_HEIGHT) as u64;
     let defines = crate::shaders::Defines::new().u32("BAKE_W", SKY_BAKE_WIDTH).u32("BAKE_H", SKY_BAKE_HEIGHT);
-    let module = crate::shaders::create_module(device, "environment bake", SOURCE, &defines)
+    let module = crate::shaders::create_module(ctx, "environment bake", SOURCE, &defines)
         .map_err(|e| GpuError::Other(e.to_string()))?;
     let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("environment bake"),
@@ -204,7 +204,14 @@ pub struct GpuScene {
     pub index_count: u32,
     pub material_buffer: wgpu::Buffer,
     pub light_buffer: wgpu::Buffer,
+    /// The analytic lights as the GPU sees them: the one copy every pass reads (shadow layers assigned).
     pub lights: Vec<GpuLight>,
+    /// Bumped whenever [`GpuScene::update_lights`] changes a light, so passes that render from the
+    /// lights (shadow maps, RSMs) know to render again.
+    pub lights_version: u64,
+    /// Identifies the uploaded geometry: unique per upload, so state rendered from another upload
+    /// (shadow maps, RSMs) is never mistaken for current.
+    pub geometry_version: u64,
     pub bind_group_layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
     pub bvh_build_ms: f64,
@@ -395,10 +402,22 @@ pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-/// Converts scene lights to their GPU form; shadow layers are assigned later by the frame core.
-pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
-    scene
-        .lights
+/// Shadow-map (and RSM) layers a light of `kind` takes: six cube faces for a point light, one view for
+/// spot and directional lights.
+pub fn shadow_layer_count(kind: u32) -> i32 {
+    match kind {
+        LIGHT_POINT => 6,
+        LIGHT_SPOT | LIGHT_DIRECTIONAL => 1,
+        _ => 0,
+    }
+}
+
+/// Converts scene lights to their GPU form. Each light's `shadow_layer` is its first layer in the
+/// per-light view arrays (shadow maps, RSMs): the layers depend only on the lights' kinds, so they stay
+/// fixed while lights move.
+pub fn gpu_lights(lights: &[Light]) -> Vec<GpuLight> {
+    let mut next_layer = 0;
+    let mut gpu: Vec<GpuLight> = lights
         .iter()
         .map(|l| match *l {
             Light::Point { position, intensity } => GpuLight {
@@ -432,7 +451,13 @@ pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
                 _pad: [0.0; 3],
             },
         })
-        .collect()
+        .collect();
+    for light in &mut gpu {
+        let layers = shadow_layer_count(light.kind);
+        light.shadow_layer = if layers > 0 { next_layer } else { -1 };
+        next_layer += layers;
+    }
+    gpu
 }
 
 pub(crate) fn luminance(c: Vec3) -> f32 {
@@ -549,7 +574,7 @@ impl GpuScene {
             last.cdf = 1.0;
         }
 
-        let lights = gpu_lights(scene);
+        let lights = gpu_lights(&scene.lights);
         let bounds = scene.bounds();
         let mut info = GpuSceneInfo {
             triangle_count: triangle_count as u32,
@@ -763,6 +788,11 @@ impl GpuScene {
             material_buffer,
             light_buffer,
             lights,
+            lights_version: 0,
+            geometry_version: {
+                static UPLOADS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+                UPLOADS.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            },
             bind_group_layout: layout,
             bind_group,
             bvh_build_ms,
@@ -770,6 +800,30 @@ impl GpuScene {
             warnings,
             environment_power,
         })
+    }
+
+    /// Moves the analytic lights: `lights` must be the scene's lights posed anew (same count and kinds,
+    /// so shadow layers and buffer sizes stay). Rewrites the light buffer only when something changed.
+    pub fn update_lights(&mut self, ctx: &GpuContext, lights: &[Light]) -> Result<bool, GpuError> {
+        let posed = gpu_lights(lights);
+        if posed.len() != self.lights.len() || posed.iter().zip(&self.lights).any(|(a, b)| a.kind != b.kind) {
+            return Err(GpuError::Other(format!(
+                "the posed scene has {} lights of other kinds than the {} uploaded; lights cannot be added, \
+                 removed or change type during an animation",
+                posed.len(),
+                self.lights.len()
+            )));
+        }
+        if bytemuck::cast_slice::<GpuLight, u8>(&posed) == bytemuck::cast_slice::<GpuLight, u8>(&self.lights)
+        {
+            return Ok(false);
+        }
+        if !posed.is_empty() {
+            ctx.queue.write_buffer(&self.light_buffer, 0, bytemuck::cast_slice(&posed));
+        }
+        self.lights = posed;
+        self.lights_version += 1;
+        Ok(true)
     }
 
     /// Vertex buffer layout for raster passes (matches [`GpuVertex`]).
@@ -937,13 +991,19 @@ mod tests {
                 ("view_proj", offset_of!(FrameUniforms, view_proj)),
                 ("inv_view_proj", offset_of!(FrameUniforms, inv_view_proj)),
                 ("camera_position", offset_of!(FrameUniforms, camera_position)),
-                ("frame_index", offset_of!(FrameUniforms, frame_index)),
+                ("prev_view_proj", offset_of!(FrameUniforms, prev_view_proj)),
+                ("frame_counter", offset_of!(FrameUniforms, frame_counter)),
                 ("size", offset_of!(FrameUniforms, size)),
                 ("seed", offset_of!(FrameUniforms, seed)),
                 ("shadow_filter_radius", offset_of!(FrameUniforms, shadow_filter_radius)),
                 ("shadow_depth_bias", offset_of!(FrameUniforms, shadow_depth_bias)),
                 ("shadow_normal_offset", offset_of!(FrameUniforms, shadow_normal_offset)),
                 ("shadow_map_size", offset_of!(FrameUniforms, shadow_map_size)),
+                ("sample_index", offset_of!(FrameUniforms, sample_index)),
+                ("jitter", offset_of!(FrameUniforms, jitter)),
+                ("time", offset_of!(FrameUniforms, time)),
+                ("delta_time", offset_of!(FrameUniforms, delta_time)),
+                ("history_valid", offset_of!(FrameUniforms, history_valid)),
             ],
         );
         assert_layout(

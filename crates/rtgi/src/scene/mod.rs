@@ -450,3 +450,22 @@ pub fn generate_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], ind
         })
         .collect()
 }
+
+// TEMP-ANIM-STUB
+pub struct Pose {
+    pub mesh_transforms: Vec<Mat4>,
+}
+impl Scene {
+    pub fn is_animated(&self) -> bool {
+        false
+    }
+    pub fn pose_at(&self, _t: f32) -> Pose {
+        Pose { mesh_transforms: vec![Mat4::IDENTITY; self.meshes.len()] }
+    }
+    pub fn posed(&self, _t: f32) -> Scene {
+        self.clone()
+    }
+    pub fn select_animation(&mut self, _n: &str) -> Result<(), crate::SceneError> {
+        Ok(())
+    }
+}

@@ -121,13 +121,14 @@ pub fn compose(shader: &str, source: &str, defines: &Defines) -> Result<String, 
 
 /// Composes `source` and creates a shader module from it.
 pub fn create_module(
-    device: &wgpu::Device,
+    ctx: &crate::gpu::GpuContext,
     shader: &str,
     source: &str,
     defines: &Defines,
 ) -> Result<wgpu::ShaderModule, ShaderError> {
     let code = compose(shader, source, defines)?;
-    Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
+    ctx.count_shader_compilation();
+    Ok(ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(shader),
         source: wgpu::ShaderSource::Wgsl(code.into()),
     }))

@@ -15,7 +15,7 @@ pub fn pipeline(
     entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
 ) -> Result<wgpu::ComputePipeline, ShaderError> {
-    let module = shaders::create_module(&ctx.device, name, source, &defines.u32("TILE", TILE))?;
+    let module = shaders::create_module(ctx, name, source, &defines.u32("TILE", TILE))?;
     let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|l| Some(*l)).collect();
     let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(name),
@@ -156,7 +156,7 @@ pub fn frame_pass(
     name: &str,
     pipeline: &wgpu::ComputePipeline,
     group: &wgpu::BindGroup,
-) -> Result<(), crate::render::RenderError> {
+) -> Result<(), super::RenderError> {
     profiler.pass(fc.ctx, name, |encoder| {
         dispatch_pixels(
             encoder,

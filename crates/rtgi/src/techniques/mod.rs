@@ -14,11 +14,24 @@ pub mod rsm;
 
 use std::collections::BTreeMap;
 
-use crate::frame::FrameResources;
-use crate::gpu::{GpuContext, GpuScene, Profiler};
+use crate::frame::{FrameResources, FrameView};
+use crate::gpu::{GpuContext, GpuError, GpuScene, PassTiming, Profiler};
 use crate::params::{ParamSpec, ParamValues};
-use crate::render::RenderError;
 use crate::scene::Scene;
+
+/// Errors of a render. Defined with the techniques (the lowest layer that raises all of them) so that
+/// the renderer above imports it and nothing here imports the renderer.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("unknown technique '{name}'; techniques: {available}")]
+    UnknownTechnique { name: String, available: String },
+    #[error("{0}")]
+    InvalidSettings(String),
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Shader(#[from] crate::shaders::ShaderError),
+}
 
 /// What a technique gets when it is created.
 pub struct TechniqueSetup<'a> {
@@ -36,7 +49,56 @@ pub struct FrameContext<'a> {
     pub ctx: &'a GpuContext,
     pub gpu_scene: &'a GpuScene,
     pub frame: &'a FrameResources,
-    pub frame_index: u32,
+    /// Camera, previous camera, counters, time and whether history is valid (also in the frame
+    /// uniforms for shaders).
+    pub view: FrameView,
+}
+
+impl<'a> FrameContext<'a> {
+    /// The first frame of a still image, with the camera the frame resources were created with.
+    pub fn still(ctx: &'a GpuContext, gpu_scene: &'a GpuScene, frame: &'a FrameResources) -> Self {
+        FrameContext { ctx, gpu_scene, frame, view: frame.view }
+    }
+
+    /// Accumulated samples before this frame: 0 on the first frame after any change.
+    pub fn sample_index(&self) -> u32 {
+        self.view.sample_index
+    }
+}
+
+/// Times the renderer measured, for counters that are rates (e.g. samples per second).
+pub struct Measured<'a> {
+    pub passes: &'a [PassTiming],
+    /// Wall time of all frames, submission to completion.
+    pub frames_wall_ms: f64,
+}
+
+impl Measured<'_> {
+    /// Total time of pass `name`: GPU timestamps when reliable, else serialised wall time; `None` when
+    /// neither was measured (frame timing without reliable timestamps).
+    pub fn pass_ms(&self, name: &str) -> Option<f64> {
+        let p = self.passes.iter().find(|p| p.name == name)?;
+        p.gpu_ms.or(p.wall_ms)
+    }
+}
+
+/// How a technique behaves when the camera, lights or objects move.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Motion {
+    /// Every frame is computed from the current scene alone; accumulation over frames restarts on any
+    /// change, so the image is correct in motion but as noisy as one frame.
+    Restarts,
+    /// Keeps history across frames and updates or reprojects it as things move.
+    Temporal,
+}
+
+impl Motion {
+    pub fn describe(self) -> &'static str {
+        match self {
+            Motion::Restarts => "correct in motion; accumulation restarts on every change",
+            Motion::Temporal => "temporal: keeps and updates history as things move",
+        }
+    }
 }
 
 /// A real-time GI technique (or the reference path tracer).
@@ -45,9 +107,21 @@ pub trait Technique {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError>;
 
     /// Technique-specific figures for the stats (counts, bytes per pixel, energy lost to clamping...).
-    fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
-        let _ = ctx;
+    fn counters(
+        &mut self,
+        ctx: &GpuContext,
+        measured: &Measured,
+    ) -> Result<BTreeMap<String, f64>, RenderError> {
+        let _ = (ctx, measured);
         Ok(BTreeMap::new())
+    }
+
+    /// The scene's analytic lights moved (the GPU scene's light buffer and [`GpuScene::lights_version`]
+    /// are already updated). Returns whether the technique brought itself up to date; `false` makes
+    /// the renderer create it anew, which is always correct but recompiles its pipelines.
+    fn lights_moved(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene) -> Result<bool, RenderError> {
+        let _ = (ctx, gpu_scene);
+        Ok(false)
     }
 
     /// What the technique cannot render of this scene (e.g. light types it ignores), for the stats.
@@ -68,6 +142,7 @@ pub struct TechniqueInfo {
     pub description: &'static str,
     pub params: &'static [ParamSpec],
     pub needs: FrameNeeds,
+    pub motion: Motion,
     pub create: fn(&TechniqueSetup) -> Result<Box<dyn Technique>, RenderError>,
 }
 

@@ -116,9 +116,8 @@ impl Harness {
     }
 
     fn with_source(ctx: &GpuContext, bvh: &Bvh, mode: u32, source: &str) -> Result<Harness, GpuError> {
-        let module =
-            shaders::create_module(&ctx.device, "bvh harness", source, &Defines::new().u32("MODE", mode))
-                .map_err(|e| GpuError::Other(e.to_string()))?;
+        let module = shaders::create_module(ctx, "bvh harness", source, &Defines::new().u32("MODE", mode))
+            .map_err(|e| GpuError::Other(e.to_string()))?;
         let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("bvh harness"),
             layout: None,

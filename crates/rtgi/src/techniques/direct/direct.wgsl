@@ -59,7 +59,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             let vis = shadow_visibility(light, s.position, s.geometric_normal);
             radiance += brdf_eval(s.material, s.normal, s.view, inc.direction) * inc.irradiance * cos_theta * vis;
         }
-        var rng = rng_new(id.xy, frame.frame_index, frame.seed);
+        var rng = rng_new(id.xy, frame.frame_counter, frame.seed);
         if scene_info.emissive_count > 0u && AREA_SAMPLES > 0u {
             var sum = vec3f(0.0);
             for (var k = 0u; k < AREA_SAMPLES; k++) {
@@ -76,7 +76,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         }
     }
     if ACCUMULATE {
-        radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.frame_index);
+        radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
     }
     textureStore(output, id.xy, vec4f(radiance, 1.0));
 }

@@ -5,8 +5,8 @@
 use crate::frame::{OUTPUT_FORMAT, SHADOW_PARAMS};
 use crate::gpu::Profiler;
 use crate::params::{ParamKind, ParamSpec};
-use crate::render::RenderError;
 use crate::shaders::Defines;
+use crate::techniques::RenderError;
 
 use super::compute::{self, storage_texture_entry};
 use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
@@ -60,6 +60,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     description: "direct light only: shadow-mapped analytic lights, ray-traced area lights and environment",
     params: &DIRECT_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    motion: super::Motion::Restarts,
     create,
 };
 
@@ -124,6 +125,7 @@ impl Technique for Direct {
     fn counters(
         &mut self,
         _ctx: &crate::gpu::GpuContext,
+        _: &super::Measured,
     ) -> Result<std::collections::BTreeMap<String, f64>, RenderError> {
         // Per-pixel memory: the shared G-buffer plus the f32 radiance output.
         Ok(std::collections::BTreeMap::from([
@@ -134,6 +136,15 @@ impl Technique for Direct {
 
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         self.0.render(fc, profiler)
+    }
+
+    // Lights are read from the scene's light buffer and shadow maps every frame.
+    fn lights_moved(
+        &mut self,
+        _: &crate::gpu::GpuContext,
+        _: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        Ok(true)
     }
 }
 

@@ -2,8 +2,8 @@
 //! (`igi`, `igi-sh`, `rsm-interleaved`): see `filter.wgsl` for what it averages and where it stops.
 
 use crate::gpu::Profiler;
-use crate::render::RenderError;
 use crate::shaders::Defines;
+use crate::techniques::RenderError;
 
 use super::compute;
 use super::{FrameContext, TechniqueSetup};
@@ -107,8 +107,9 @@ mod tests {
         let gpu_scene = GpuScene::new(&ctx, &scene).expect("scene upload");
         let (w, h) = (48u32, 48u32);
         let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, None).expect("frame");
-        let mut profiler = Profiler::new(&ctx);
-        frame.begin_frame(&ctx, 0, 0);
+        let mut profiler = Profiler::new(&ctx, crate::gpu::TimingMode::Passes);
+        let view = frame.view;
+        frame.set_view(&ctx, &view, 0);
         frame.render_inputs(&ctx, &gpu_scene, &mut profiler).expect("gbuffer");
         let material: Vec<u32> = bytemuck::cast_slice::<u8, u32>(
             &readback::read_texture(&ctx, &frame.gbuffer.material, 8).expect("readback"),
@@ -161,7 +162,7 @@ mod tests {
             FilterSettings { window: [4, 4], depth_threshold: 0.02, normal_cos: None, material_test: true };
         let filter =
             DiscontinuityFilter::new(&setup, &input_buffer, &output_buffer, 1, &settings).expect("filter");
-        let fc = FrameContext { ctx: &ctx, gpu_scene: &gpu_scene, frame: &frame, frame_index: 0 };
+        let fc = FrameContext::still(&ctx, &gpu_scene, &frame);
         filter.render(&fc, &mut profiler, "filter").expect("filter pass");
         let out: Vec<f32> = bytemuck::cast_slice::<u8, u16>(
             &readback::read_buffer(&ctx, &output_buffer, 0, packed_buffer_bytes(w, h, 1)).expect("readback"),

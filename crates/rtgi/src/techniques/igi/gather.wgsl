@@ -114,7 +114,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         }
         if COMPENSATE && G_MAX > 0.0 {
             // The same direction in every chunk: the chunks' partial sums add up to one estimate.
-            var rng = rng_new(id.xy, frame.frame_index, frame.seed ^ 0x51ed270bu);
+            var rng = rng_new(id.xy, frame.frame_counter, frame.seed ^ 0x51ed270bu);
             let dir = local_to_world(sample_cone(rng_next2(&rng), 0.0), s.geometric_normal);
             let cos_x = max(dot(s.normal, dir), 0.0);
             let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);

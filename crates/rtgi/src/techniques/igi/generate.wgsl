@@ -77,7 +77,7 @@ fn end_path(set_index: u32, j0: u32, i: u32) {
 }
 
 fn qmc(set_index: u32, i: u32, dim: u32) -> f32 {
-    let offset = u32_to_unit(hash3(set_index, frame.frame_index * 0x9e3779b9u ^ frame.seed, dim));
+    let offset = u32_to_unit(hash3(set_index, frame.frame_counter * 0x9e3779b9u ^ frame.seed, dim));
     return halton(i, dim, offset);
 }
 

@@ -18,16 +18,16 @@ use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::scene::{LIGHT_DIRECTIONAL, LIGHT_SPOT, luminance, mean_srgb_luminance};
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::params::{ParamKind, ParamSpec};
-use crate::render::RenderError;
 use crate::scene::Scene;
 use crate::shaders::Defines;
+use crate::techniques::RenderError;
 
 use super::compute::{
     self, DispatchSlots, storage_buffer_entry, storage_texture_entry, texture_entry, uniform_entry,
 };
 use super::direct::{DirectLighting, DirectOutput, with_direct_params};
 use super::discontinuity::{DiscontinuityFilter, FilterSettings, packed_buffer_bytes};
-use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
+use super::{FrameContext, FrameNeeds, Measured, Technique, TechniqueInfo, TechniqueSetup};
 
 const VPL_WGSL: &str = include_str!("vpl.wgsl");
 
@@ -114,6 +114,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     description: "instant global illumination: VPLs, interleaved sampling, discontinuity filter of irradiance",
     params: &IGI_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    motion: super::Motion::Restarts,
     create: create_classic,
 };
 
@@ -122,6 +123,7 @@ pub const SH_INFO: TechniqueInfo = TechniqueInfo {
     description: "IGI filtering incident radiance as order-2 SH: keeps normal-map detail, shades glossy BRDFs",
     params: &IGI_SH_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    motion: super::Motion::Restarts,
     create: create_sh,
 };
 
@@ -644,7 +646,7 @@ impl Technique for Igi {
         compute::frame_pass(fc, profiler, "shading", &self.shade, &self.shade_group)
     }
 
-    fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
+    fn counters(&mut self, ctx: &GpuContext, _: &Measured) -> Result<BTreeMap<String, f64>, RenderError> {
         let bytes =
             readback::read_buffer(ctx, &self.clamp_stats, 0, u64::from(self.width * self.height) * 16)?;
         let stats: &[f32] = bytemuck::cast_slice(&bytes);

@@ -69,6 +69,6 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             radiance += unpack_half4(filtered[base]).rgb * (weights.diffuse + weights.specular);
         }
     }
-    let mean = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.frame_index);
+    let mean = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
     textureStore(output, id.xy, vec4f(mean, 1.0));
 }

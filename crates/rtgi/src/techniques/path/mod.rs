@@ -10,11 +10,11 @@ use wgpu::util::DeviceExt;
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::params::{ParamKind, ParamSpec};
-use crate::render::RenderError;
 use crate::shaders::Defines;
+use crate::techniques::RenderError;
 
 use super::compute::{self, DispatchSlots, storage_texture_entry};
-use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
+use super::{FrameContext, FrameNeeds, Measured, Technique, TechniqueInfo, TechniqueSetup};
 
 const PARAMS: &[ParamSpec] = &[
     ParamSpec {
@@ -60,8 +60,11 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     description: "reference path tracer: NEE for every light, GGX VNDF + Lambert BRDF sampling, MIS, roulette",
     params: PARAMS,
     needs: FrameNeeds { gbuffer: false },
+    motion: super::Motion::Restarts,
     create,
 };
+
+const PASS: &str = "path trace";
 
 struct PathTracer {
     pipeline: wgpu::ComputePipeline,
@@ -69,9 +72,7 @@ struct PathTracer {
     ray_counter: wgpu::Buffer,
     spp: u32,
     sample_indices: DispatchSlots,
-    rays: u64,
     samples: u64,
-    pass_ms: f64,
 }
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -99,7 +100,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     });
     let ray_counter = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("ray counter"),
-        contents: &[0u8; 4],
+        contents: &[0u8; 8],
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
     });
     let view = setup.output.create_view(&Default::default());
@@ -130,25 +131,14 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
     )?;
-    Ok(Box::new(PathTracer {
-        pipeline,
-        bind_group,
-        ray_counter,
-        spp,
-        sample_indices,
-        rays: 0,
-        samples: 0,
-        pass_ms: 0.0,
-    }))
+    Ok(Box::new(PathTracer { pipeline, bind_group, ray_counter, spp, sample_indices, samples: 0 }))
 }
 
 impl Technique for PathTracer {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        fc.ctx.queue.write_buffer(&self.ray_counter, 0, &[0u8; 4]);
-        let start = std::time::Instant::now();
-        profiler.pass(fc.ctx, "path trace", |encoder| {
+        profiler.pass(fc.ctx, PASS, |encoder| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("path trace"),
+                label: Some(PASS),
                 timestamp_writes: None,
             });
             pass.set_pipeline(&self.pipeline);
@@ -160,20 +150,31 @@ impl Technique for PathTracer {
                 pass.dispatch_workgroups(wx, wy, 1);
             }
         })?;
-        self.pass_ms += start.elapsed().as_secs_f64() * 1e3;
-        let count = readback::read_buffer(fc.ctx, &self.ray_counter, 0, 4)?;
-        self.rays += u64::from(u32::from_le_bytes([count[0], count[1], count[2], count[3]]));
         self.samples += u64::from(fc.frame.width) * u64::from(fc.frame.height) * u64::from(self.spp);
         Ok(())
     }
 
-    fn counters(&mut self, _ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
-        let seconds = (self.pass_ms / 1e3).max(1e-9);
+    // Lights are read from the scene's light buffer every frame.
+    fn lights_moved(&mut self, _: &GpuContext, _: &crate::gpu::GpuScene) -> Result<bool, RenderError> {
+        Ok(true)
+    }
+
+    fn counters(
+        &mut self,
+        ctx: &GpuContext,
+        measured: &Measured,
+    ) -> Result<BTreeMap<String, f64>, RenderError> {
+        let count = readback::read_buffer(ctx, &self.ray_counter, 0, 8)?;
+        let words: &[u32] = bytemuck::cast_slice(&count);
+        let rays = (u64::from(words[1]) << 32 | u64::from(words[0])) as f64;
+        // The path tracer is the frame's only pass, so the frames' wall time stands in for it where
+        // per-pass times are unknown (frame timing without reliable timestamps).
+        let seconds = (measured.pass_ms(PASS).unwrap_or(measured.frames_wall_ms) / 1e3).max(1e-9);
         Ok(BTreeMap::from([
             ("samples".to_string(), self.samples as f64),
-            ("rays".to_string(), self.rays as f64),
+            ("rays".to_string(), rays),
             ("samples_per_second".to_string(), self.samples as f64 / seconds),
-            ("rays_per_second".to_string(), self.rays as f64 / seconds),
+            ("rays_per_second".to_string(), rays / seconds),
         ]))
     }
 }

@@ -13,7 +13,9 @@
 
 @group(2) @binding(0) var output: texture_storage_2d<rgba32float, read_write>;
 // Rays traced this frame (closest-hit and shadow), for the throughput statistics.
-@group(2) @binding(1) var<storage, read_write> ray_count: atomic<u32>;
+// Rays traced since the technique was created, as a 64-bit count (low word, carries into the high
+// word): read once for the stats, never per frame, so frames need no readback.
+@group(2) @binding(1) var<storage, read_write> ray_count: array<atomic<u32>, 2>;
 // Index of this dispatch's sample within the frame (one dispatch per sample, see `main`).
 @group(2) @binding(2) var<uniform> sample_index: u32;
 
@@ -147,10 +149,12 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     var rays = 0u;
-    let n = frame.frame_index * SPP + sample_index;
-    var rng = rng_new(id.xy, n, frame.seed);
+    var rng = rng_new(id.xy, frame.frame_counter * SPP + sample_index, frame.seed);
     let radiance = trace_path(id.xy, &rng, &rays);
-    let mean = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, n);
+    let mean = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index * SPP + sample_index);
     textureStore(output, id.xy, vec4f(mean, 1.0));
-    atomicAdd(&ray_count, rays);
+    let before = atomicAdd(&ray_count[0], rays);
+    if before + rays < before {
+        atomicAdd(&ray_count[1], 1u);
+    }
 }

@@ -10,7 +10,7 @@
 
 fn composite(p: vec2u, indirect: vec3f) {
     let c = textureLoad(direct, p, 0).rgb + indirect;
-    textureStore(output, p, vec4f(accumulate_mean(textureLoad(output, p).rgb, c, frame.frame_index), 1.0));
+    textureStore(output, p, vec4f(accumulate_mean(textureLoad(output, p).rgb, c, frame.sample_index), 1.0));
 }
 
 @compute @workgroup_size(TILE, TILE)

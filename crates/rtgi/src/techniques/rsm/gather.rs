@@ -8,11 +8,11 @@ use super::map::{self, ReflectiveShadowMap};
 use super::{Resolve, Sampling, gather_samples};
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::{GpuContext, Profiler, readback};
-use crate::render::RenderError;
 use crate::shaders::Defines;
+use crate::techniques::RenderError;
 use crate::techniques::compute::{self, DispatchSlots, storage_texture_entry};
 use crate::techniques::direct::{DirectLighting, DirectOutput};
-use crate::techniques::{FrameContext, Technique, TechniqueSetup};
+use crate::techniques::{FrameContext, Measured, Technique, TechniqueSetup};
 
 /// Samples (of one subset) per dispatch: lavapipe loses work in much longer loops.
 const SAMPLES_PER_DISPATCH: u32 = 256;
@@ -256,7 +256,7 @@ impl Gather {
 impl Technique for Gather {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let ctx = fc.ctx;
-        let samples = gather_samples(&self.sampling, fc.frame.uniforms.seed, fc.frame_index);
+        let samples = gather_samples(&self.sampling, fc.frame.uniforms.seed, fc.view.frame_counter);
         ctx.queue.write_buffer(&self.samples_buffer, 0, bytemuck::cast_slice(&samples));
         self.rsm.render(ctx, fc.gpu_scene, profiler)?;
         self.direct.render(fc, profiler)?;
@@ -272,7 +272,7 @@ impl Technique for Gather {
         self.resolve.render(fc, profiler)
     }
 
-    fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
+    fn counters(&mut self, ctx: &GpuContext, _: &Measured) -> Result<BTreeMap<String, f64>, RenderError> {
         let mut c = BTreeMap::new();
         c.insert("rsm_texels".into(), f64::from(self.rsm.texels()));
         c.insert("rsm_layers".into(), self.rsm.views.len() as f64);

@@ -4,8 +4,8 @@
 
 use crate::frame::{self, FrameResources};
 use crate::gpu::GpuContext;
-use crate::render::RenderError;
 use crate::shaders::Defines;
+use crate::techniques::RenderError;
 use crate::techniques::compute;
 
 /// Where each texel of a technique's indirect buffer comes from (see `atlas.wgsl`).

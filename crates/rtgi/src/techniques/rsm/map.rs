@@ -9,9 +9,9 @@ use wgpu::util::DeviceExt;
 use crate::frame::{self, DEPTH_FORMAT, SHADOW_VIEW_STRIDE};
 use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::gpu::{GpuContext, GpuScene, Profiler};
-use crate::render::RenderError;
 use crate::scene::Scene;
 use crate::shaders::{self, Defines};
+use crate::techniques::RenderError;
 
 pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -130,8 +130,8 @@ impl ReflectiveShadowMap {
                 limits.max_texture_dimension_2d
             )));
         }
-        let mut lights = gpu_scene.lights.clone();
-        let shadow_views = frame::shadow_views(&mut lights, scene, size);
+        let lights = &gpu_scene.lights;
+        let shadow_views = frame::shadow_views(lights, scene.bounds(), size);
         let mut views = Vec::with_capacity(shadow_views.len());
         for (index, light) in lights.iter().enumerate() {
             let count = match light.kind {
@@ -182,12 +182,12 @@ impl ReflectiveShadowMap {
 
         let view_data: Vec<RsmView> = if views.is_empty() { vec![RsmView::zeroed()] } else { views.clone() };
         let view_layout = frame::uniform_layout(device, true);
-        let view_bind_group = frame::view_slots(device, "rsm view", &view_layout, &view_data);
+        let view_bind_group = frame::ViewSlots::new(device, "rsm view", &view_layout, &view_data).bind_group;
         let pipeline = if views.is_empty() {
             None
         } else {
             let module = shaders::create_module(
-                device,
+                ctx,
                 "rsm map",
                 &format!("{VIEW_WGSL}\n{}", include_str!("map.wgsl")),
                 &Defines::new(),

@@ -22,8 +22,8 @@ mod tests;
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::Profiler;
 use crate::params::{ParamKind, ParamSpec, ParamValues};
-use crate::render::RenderError;
 use crate::shaders::Defines;
+use crate::techniques::RenderError;
 use crate::techniques::compute::{self, storage_texture_entry};
 use crate::techniques::direct::with_direct_params;
 use crate::techniques::discontinuity::{self, DiscontinuityFilter, FilterSettings};
@@ -124,6 +124,7 @@ pub const RSM_INFO: TechniqueInfo = TechniqueInfo {
                   reduced resolution + geometry-aware upsampling",
     params: &RSM_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    motion: super::Motion::Restarts,
     create: |setup| Ok(Box::new(gather::Gather::new(setup, (1, 1), setup.params.int("downsample") as u32)?)),
 };
 
@@ -133,6 +134,7 @@ pub const RSM_INTERLEAVED_INFO: TechniqueInfo = TechniqueInfo {
                   and discontinuity filter",
     params: &RSM_INTERLEAVED_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    motion: super::Motion::Restarts,
     create: |setup| Ok(Box::new(gather::Gather::new(setup, interleave_param(setup.params)?, 1)?)),
 };
 
@@ -142,6 +144,7 @@ pub const SII_INFO: TechniqueInfo = TechniqueInfo {
                   screen regions, optionally interleaved",
     params: &SII_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    motion: super::Motion::Restarts,
     create: |setup| Ok(Box::new(splat::Splat::new(setup, interleave_param(setup.params)?)?)),
 };
 

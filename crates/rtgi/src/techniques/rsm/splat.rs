@@ -9,11 +9,11 @@ use super::interleave::{self, AtlasLayout, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::{GpuContext, Profiler, readback};
-use crate::render::RenderError;
 use crate::shaders::{self, Defines};
+use crate::techniques::RenderError;
 use crate::techniques::compute;
 use crate::techniques::direct::{DirectLighting, DirectOutput};
-use crate::techniques::{FrameContext, Technique, TechniqueSetup};
+use crate::techniques::{FrameContext, Measured, Technique, TechniqueSetup};
 
 /// A VPL; mirrors `Vpl` in `vpl_struct.wgsl`.
 #[repr(C)]
@@ -171,7 +171,7 @@ impl Splat {
         });
         let defines =
             layout.defines(Defines::new()).bool("SPLIT_GBUFFER", layout.is_interleaved()).f32("SCALE", scale);
-        let module = shaders::create_module(&ctx.device, "splat", &splat_source(), &defines)?;
+        let module = shaders::create_module(ctx, "splat", &splat_source(), &defines)?;
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("splat"),
             bind_group_layouts: &[
@@ -240,10 +240,11 @@ impl Technique for Splat {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let ctx = fc.ctx;
         // A different stratification offset every frame (frame 0: the slice centres).
-        self.params.jitter = if fc.frame_index == 0 {
+        self.params.jitter = if fc.sample_index() == 0 {
             0.5
         } else {
-            let h = (fc.frame_index ^ fc.frame.uniforms.seed.rotate_left(16)).wrapping_mul(0x9e37_79b9);
+            let h =
+                (fc.view.frame_counter ^ fc.frame.uniforms.seed.rotate_left(16)).wrapping_mul(0x9e37_79b9);
             (h >> 8) as f32 / (1u32 << 24) as f32
         };
         ctx.queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
@@ -282,7 +283,7 @@ impl Technique for Splat {
         self.resolve.render(fc, profiler)
     }
 
-    fn counters(&mut self, ctx: &GpuContext) -> Result<BTreeMap<String, f64>, RenderError> {
+    fn counters(&mut self, ctx: &GpuContext, _: &Measured) -> Result<BTreeMap<String, f64>, RenderError> {
         let mut c = BTreeMap::new();
         // Splat fragments shaded in the last frame (the atlas's alpha counts them) and the splat radius.
         let atlas =

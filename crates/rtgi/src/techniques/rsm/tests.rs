@@ -145,8 +145,11 @@ fn fixture(scene: &str, w: u32, h: u32) -> Fixture {
     let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
     let shadows = ShadowSettings { size: 256, filter_radius: 1, depth_bias: 1e-4, normal_offset: 1.5 };
     let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, Some(shadows)).expect("frame");
-    frame.begin_frame(&ctx, 0, 0);
-    frame.render_inputs(&ctx, &gpu_scene, &mut Profiler::new(&ctx)).expect("gbuffer");
+    let view = frame.view;
+    frame.set_view(&ctx, &view, 0);
+    frame
+        .render_inputs(&ctx, &gpu_scene, &mut Profiler::new(&ctx, crate::gpu::TimingMode::Passes))
+        .expect("gbuffer");
     let output = compute::storage_texture(&ctx, "output", w, h, OUTPUT_FORMAT);
     Fixture { ctx, scene, gpu_scene, frame, output }
 }
@@ -314,8 +317,13 @@ fn every_vpl_reaches_exactly_one_sub_buffer() {
         output: &f.output,
     };
     let mut sii = splat::Splat::new(&setup, (n, m)).expect("sii");
-    let fc = FrameContext { ctx: &f.ctx, gpu_scene: &f.gpu_scene, frame: &f.frame, frame_index: 0 };
-    crate::techniques::Technique::render_frame(&mut sii, &fc, &mut Profiler::new(&f.ctx)).expect("frame");
+    let fc = FrameContext::still(&f.ctx, &f.gpu_scene, &f.frame);
+    crate::techniques::Technique::render_frame(
+        &mut sii,
+        &fc,
+        &mut Profiler::new(&f.ctx, crate::gpu::TimingMode::Passes),
+    )
+    .expect("frame");
     // Each VPL belongs to one sub-buffer, k mod N·M, so every sub-buffer gets count/(N·M).
     let bytes = read_buffer(&f.ctx, &sii.vpl_buffer, 0, u64::from(count) * 48).expect("vpls");
     let vpls: &[splat::GpuVpl] = bytemuck::cast_slice(&bytes);
@@ -414,7 +422,8 @@ fn rsm_texels_carry_the_reflected_flux_of_every_light_type() {
         scene.lights = vec![light];
         let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
         let mut rsm = map::ReflectiveShadowMap::new(&ctx, &scene, &gpu_scene, 128).expect("rsm");
-        rsm.render(&ctx, &gpu_scene, &mut Profiler::new(&ctx)).expect("render");
+        rsm.render(&ctx, &gpu_scene, &mut Profiler::new(&ctx, crate::gpu::TimingMode::Passes))
+            .expect("render");
         let got = rsm_total_flux(&ctx, &rsm);
         for c in 0..3 {
             let expected = 0.8 * f64::from(intensity[c]) * factor;

@@ -1,0 +1,697 @@
+//! The persistent renderer: a scene on the GPU, its frame resources and one active technique, stepped
+//! one frame at a time while the time, camera, technique, parameters or size change.
+//!
+//! A change rebuilds only what it invalidates:
+//! - time: poses the scene; a moved camera restarts accumulation; moved lights rewrite the light
+//!   buffer, re-aim and re-render the shadow maps, and either update the technique in place
+//!   ([`Technique::lights_moved`]) or create it anew; moved geometry re-uploads the scene (see
+//!   [`RendererCounters::scene_uploads`]);
+//! - camera: restarts accumulation, keeps history (a camera move is not a cut; [`Renderer::cut`] is);
+//! - parameters that only feed uniforms (`seed`, shadow filter, bias and offset) write uniforms; others
+//!   create the technique anew (and the frame resources when the shadow-map size changes);
+//! - technique: creates the new one (frame resources only if its shadow settings differ);
+//! - size: frame resources, output and technique.
+//!
+//! History (`history_valid` in the frame uniforms) is invalid on the first frame and after a cut, a
+//! parameter or technique change, a resize or a scene re-upload; accumulation (`sample_index`) restarts
+//! after any change at all.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use glam::Mat4;
+use serde::Serialize;
+
+use crate::frame::{FrameResources, FrameView, OUTPUT_FORMAT, ShadowSettings};
+use crate::gpu::{
+    AdapterSummary, GpuContext, GpuScene, MemoryReport, PassTiming, Profiler, TimeSummary, TimingMode,
+    readback,
+};
+use crate::image::HdrImage;
+use crate::params::ParamValues;
+use crate::scene::{Aabb, Camera, Scene};
+use crate::techniques::{
+    self, FrameContext, Measured, RenderError, Technique, TechniqueInfo, TechniqueSetup,
+};
+
+/// What to create a [`Renderer`] with.
+#[derive(Clone, Debug)]
+pub struct RendererSettings {
+    /// A technique name from [`crate::techniques::registry`].
+    pub technique: String,
+    /// `key=value` technique parameters, validated against the technique's specs.
+    pub technique_settings: Vec<(String, String)>,
+    pub width: u32,
+    pub height: u32,
+    pub timing: TimingMode,
+}
+
+/// How often the renderer had to redo setup work: a steady run shows none after the first frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RendererCounters {
+    /// GPU scene uploads, each with a BVH build of every mesh.
+    pub scene_uploads: u32,
+    /// BVH builds (today one per scene upload).
+    pub bvh_builds: u32,
+    /// Frame resources (G-buffer, shadow maps) created.
+    pub frame_builds: u32,
+    /// Techniques created.
+    pub technique_builds: u32,
+    /// Shader modules compiled, one per pipeline (on this renderer's device, by any user of it).
+    pub shader_compilations: u64,
+    /// Light updates applied in place (light buffer, shadow maps; technique updated itself).
+    pub light_updates: u32,
+}
+
+/// Statistics of a run, written by `rtgi render --stats`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderStats {
+    pub scene: String,
+    pub technique: String,
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    pub adapter: AdapterSummary,
+    /// Wall time of the frames (excluding scene upload and pipeline creation).
+    pub wall_ms: f64,
+    /// Wall time of the first setup: scene upload, BVH build and pipeline creation.
+    pub setup_ms: f64,
+    /// How passes were submitted and timed (`frame`: one encoder per frame; `passes`: one submission
+    /// per pass).
+    pub timing: TimingMode,
+    /// `reliable`, or why per-pass GPU times are absent.
+    pub timestamps: String,
+    /// Wall time per frame after the first (submission to completion), mean and 95th percentile.
+    pub frame_wall: Option<TimeSummary>,
+    /// GPU time per frame after the first (sum of the passes' timestamps), when reliable.
+    pub frame_gpu: Option<TimeSummary>,
+    pub passes: Vec<PassTiming>,
+    pub parameters: BTreeMap<String, String>,
+    pub triangles: usize,
+    pub bvh_build_ms: f64,
+    pub gpu_scene_bytes: u64,
+    /// Setup work done while running (uploads, builds, shader compilations).
+    pub renderer: RendererCounters,
+    /// Scene time of the last frame, seconds.
+    pub time: f32,
+    /// Process and GPU memory after frames 1, 10, 100, 1000, ... and at the end of the run: a steady
+    /// renderer keeps them flat after warm-up.
+    pub memory: Vec<MemorySample>,
+    /// Technique-specific counters (e.g. VPL counts, bytes per pixel).
+    pub counters: BTreeMap<String, f64>,
+    /// What the GPU upload had to change (e.g. textures downsampled to the array size).
+    pub warnings: Vec<String>,
+}
+
+/// Memory after a number of frames.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct MemorySample {
+    pub frames: u32,
+    #[serde(flatten)]
+    pub report: MemoryReport,
+}
+
+/// A G-buffer channel that [`Renderer::read_aov`] can return.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Aov {
+    /// Distance along the primary ray (0 where it left the scene), in R, G and B.
+    Depth,
+    /// World-space shading normal, xyz in RGB.
+    Normal,
+    /// Base colour (linear RGB).
+    Albedo,
+    /// Emitted radiance.
+    Emission,
+}
+
+impl std::str::FromStr for Aov {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "depth" => Ok(Aov::Depth),
+            "normal" => Ok(Aov::Normal),
+            "albedo" => Ok(Aov::Albedo),
+            "emission" => Ok(Aov::Emission),
+            _ => Err(format!("unknown AOV '{s}'; AOVs: depth, normal, albedo, emission")),
+        }
+    }
+}
+
+/// Technique parameters that feed only the frame uniforms: changing them rebuilds nothing.
+const UNIFORM_ONLY_PARAMS: [&str; 4] = ["seed", "shadow_filter", "shadow_bias", "shadow_normal_offset"];
+
+fn resolve(
+    name: &str,
+    settings: &[(String, String)],
+) -> Result<(&'static TechniqueInfo, ParamValues), RenderError> {
+    techniques::resolve(name, settings).map_err(|e| {
+        if techniques::registry().iter().any(|t| t.name == name) {
+            RenderError::InvalidSettings(e)
+        } else {
+            RenderError::UnknownTechnique {
+                name: name.to_string(),
+                available: techniques::registry().iter().map(|t| t.name).collect::<Vec<_>>().join(", "),
+            }
+        }
+    })
+}
+
+fn check_size(width: u32, height: u32) -> Result<(), RenderError> {
+    if width == 0 || height == 0 {
+        return Err(RenderError::InvalidSettings(format!(
+            "image size {width}x{height} is empty; width and height must be at least 1"
+        )));
+    }
+    Ok(())
+}
+
+fn seed_of(params: &ParamValues) -> u32 {
+    params.get("seed").map_or(0, |_| params.int("seed") as u32)
+}
+
+fn output_texture(ctx: &GpuContext, width: u32, height: u32) -> wgpu::Texture {
+    ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("radiance"),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: OUTPUT_FORMAT,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    })
+}
+
+/// The state the scene is shown in: the posed scene (world space at the current time) and its bounds.
+struct Posed {
+    scene: Scene,
+    bounds: Aabb,
+    /// Per mesh, the transform of the uploaded geometry (identity for a static scene).
+    mesh_transforms: Vec<Mat4>,
+}
+
+/// A persistent renderer. See the module documentation for what each change rebuilds.
+pub struct Renderer {
+    ctx: GpuContext,
+    /// The scene as given (with its animation); [`Posed::scene`] is what is on the GPU.
+    source: Scene,
+    posed: Posed,
+    gpu_scene: GpuScene,
+    frame: FrameResources,
+    output: wgpu::Texture,
+    info: &'static TechniqueInfo,
+    params: ParamValues,
+    technique: Box<dyn Technique>,
+    profiler: Profiler,
+    seed: u32,
+    time: f32,
+    previous_time: Option<f32>,
+    camera: Camera,
+    camera_override: bool,
+    previous_view_proj: Option<Mat4>,
+    frame_counter: u32,
+    sample_index: u32,
+    history_valid: bool,
+    counters: RendererCounters,
+    shader_compilations_at_start: u64,
+    setup_ms: f64,
+    frames_wall_ms: f64,
+    frames: u32,
+    memory: Vec<MemorySample>,
+}
+
+impl Renderer {
+    /// Uploads `scene` (posed at time 0 when animated), creates the frame resources and the technique.
+    pub fn new(ctx: &GpuContext, scene: Scene, settings: &RendererSettings) -> Result<Self, RenderError> {
+        let (info, params) = resolve(&settings.technique, &settings.technique_settings)?;
+        check_size(settings.width, settings.height)?;
+        let start = Instant::now();
+        let shader_compilations_at_start = ctx.shader_compilations();
+        let posed = pose(&scene, 0.0);
+        let camera = posed.scene.camera;
+        let (gpu_scene, frame, output, technique) = ctx.checked("setting up the render", || {
+            let gpu_scene = GpuScene::new(ctx, &posed.scene)?;
+            let frame = FrameResources::new(
+                ctx,
+                &gpu_scene,
+                &posed.scene,
+                settings.width,
+                settings.height,
+                ShadowSettings::from_params(&params),
+            )?;
+            let output = output_texture(ctx, settings.width, settings.height);
+            let technique = create_technique(ctx, &posed.scene, &gpu_scene, &frame, &output, info, &params)?;
+            Ok::<_, RenderError>((gpu_scene, frame, output, technique))
+        })??;
+        ctx.wait_idle()?;
+        let mut renderer = Renderer {
+            ctx: ctx.clone(),
+            source: scene,
+            posed,
+            gpu_scene,
+            frame,
+            output,
+            info,
+            seed: seed_of(&params),
+            params,
+            technique,
+            profiler: Profiler::new(ctx, settings.timing),
+            time: 0.0,
+            previous_time: None,
+            camera,
+            camera_override: false,
+            previous_view_proj: None,
+            frame_counter: 0,
+            sample_index: 0,
+            history_valid: false,
+            counters: RendererCounters {
+                scene_uploads: 1,
+                bvh_builds: 1,
+                frame_builds: 1,
+                technique_builds: 1,
+                ..Default::default()
+            },
+            shader_compilations_at_start,
+            setup_ms: 0.0,
+            frames_wall_ms: 0.0,
+            frames: 0,
+            memory: Vec::new(),
+        };
+        renderer.setup_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(renderer)
+    }
+
+    pub fn ctx(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// The scene as given, with its animation.
+    pub fn scene(&self) -> &Scene {
+        &self.source
+    }
+
+    pub fn technique(&self) -> &'static TechniqueInfo {
+        self.info
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.frame.width, self.frame.height)
+    }
+
+    /// The camera of the next frame.
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    pub fn time(&self) -> f32 {
+        self.time
+    }
+
+    /// Frames accumulated into the current image (restarts at 0 after any change).
+    pub fn sample_index(&self) -> u32 {
+        self.sample_index
+    }
+
+    /// Setup work done so far.
+    pub fn counters(&self) -> RendererCounters {
+        RendererCounters {
+            shader_compilations: self.ctx.shader_compilations() - self.shader_compilations_at_start,
+            ..self.counters
+        }
+    }
+
+    /// Restarts accumulation (something the next frame shows changed).
+    fn restart_accumulation(&mut self) {
+        self.sample_index = 0;
+    }
+
+    /// Marks the next frame as a cut: no history is valid, accumulation restarts.
+    pub fn cut(&mut self) {
+        self.history_valid = false;
+        self.previous_view_proj = None;
+        self.restart_accumulation();
+    }
+
+    /// Views the scene from `camera` from now on (overriding the scene's camera and its animation).
+    pub fn set_camera(&mut self, camera: Camera) {
+        self.camera_override = true;
+        if camera != self.camera {
+            self.camera = camera;
+            self.restart_accumulation();
+        }
+    }
+
+    /// Goes back to the scene's own (possibly animated) camera.
+    pub fn use_scene_camera(&mut self) {
+        self.camera_override = false;
+        let camera = self.posed.scene.camera;
+        if camera != self.camera {
+            self.camera = camera;
+            self.restart_accumulation();
+        }
+    }
+
+    /// Poses the scene at time `t` (seconds). On a static scene only the time uniform changes.
+    pub fn set_time(&mut self, t: f32) -> Result<(), RenderError> {
+        if !t.is_finite() {
+            return Err(RenderError::InvalidSettings(format!("time {t} is not a finite number of seconds")));
+        }
+        self.time = t;
+        if !self.source.is_animated() {
+            return Ok(());
+        }
+        let posed = pose(&self.source, t);
+        if !self.camera_override && posed.scene.camera != self.camera {
+            self.camera = posed.scene.camera;
+            self.restart_accumulation();
+        }
+        let geometry_moved = posed.mesh_transforms != self.posed.mesh_transforms
+            || posed.scene.environment != self.posed.scene.environment;
+        let lights_moved = posed.scene.lights != self.posed.scene.lights;
+        self.posed = posed;
+        if geometry_moved {
+            // Until rigid objects become BVH instances, moved geometry means a new upload.
+            self.restart_accumulation();
+            return self.rebuild_scene();
+        }
+        if lights_moved {
+            self.restart_accumulation();
+            let ctx = self.ctx.clone();
+            ctx.checked("moving the lights", || -> Result<(), RenderError> {
+                self.gpu_scene.update_lights(&ctx, &self.posed.scene.lights)?;
+                self.frame.update_shadow_views(&ctx, &self.gpu_scene, self.posed.bounds);
+                if self.technique.lights_moved(&ctx, &self.gpu_scene)? {
+                    self.counters.light_updates += 1;
+                    Ok(())
+                } else {
+                    self.rebuild_technique()
+                }
+            })??;
+        }
+        Ok(())
+    }
+
+    /// Validates and applies new technique parameters (all of them: unnamed ones take their defaults).
+    /// Parameters that only feed uniforms (`seed`, `shadow_filter`, `shadow_bias`,
+    /// `shadow_normal_offset`) rebuild nothing; others create the technique anew.
+    pub fn set_parameters(&mut self, settings: &[(String, String)]) -> Result<(), RenderError> {
+        let (_, params) = resolve(self.info.name, settings)?;
+        let (old, new) = (self.params.to_map(), params.to_map());
+        if old == new {
+            return Ok(());
+        }
+        let structural =
+            new.iter().any(|(k, v)| old.get(k) != Some(v) && !UNIFORM_ONLY_PARAMS.contains(&k.as_str()));
+        self.params = params;
+        self.seed = seed_of(&self.params);
+        self.cut();
+        if structural {
+            return self.rebuild_technique();
+        }
+        if let Some(shadows) = ShadowSettings::from_params(&self.params) {
+            self.frame.set_shadow_settings(shadows)?;
+        }
+        Ok(())
+    }
+
+    /// Switches to another technique with `settings`.
+    pub fn set_technique(&mut self, name: &str, settings: &[(String, String)]) -> Result<(), RenderError> {
+        let (info, params) = resolve(name, settings)?;
+        self.info = info;
+        self.params = params;
+        self.seed = seed_of(&self.params);
+        self.cut();
+        // Timings and counters are per technique.
+        self.profiler.reset();
+        self.memory.clear();
+        self.frames = 0;
+        self.frames_wall_ms = 0.0;
+        self.rebuild_technique()
+    }
+
+    /// Changes the image size.
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
+        check_size(width, height)?;
+        if (width, height) == self.size() {
+            return Ok(());
+        }
+        self.cut();
+        let ctx = self.ctx.clone();
+        ctx.checked("resizing", || -> Result<(), RenderError> {
+            self.frame = FrameResources::new(
+                &ctx,
+                &self.gpu_scene,
+                &self.posed.scene,
+                width,
+                height,
+                ShadowSettings::from_params(&self.params),
+            )?;
+            self.counters.frame_builds += 1;
+            self.output = output_texture(&ctx, width, height);
+            self.technique = self.new_technique()?;
+            self.counters.technique_builds += 1;
+            Ok(())
+        })?
+    }
+
+    fn new_technique(&self) -> Result<Box<dyn Technique>, RenderError> {
+        create_technique(
+            &self.ctx,
+            &self.posed.scene,
+            &self.gpu_scene,
+            &self.frame,
+            &self.output,
+            self.info,
+            &self.params,
+        )
+    }
+
+    /// Creates the technique anew (and the frame resources when its shadow settings need other maps).
+    fn rebuild_technique(&mut self) -> Result<(), RenderError> {
+        let ctx = self.ctx.clone();
+        ctx.checked("creating the technique", || -> Result<(), RenderError> {
+            let shadows = ShadowSettings::from_params(&self.params);
+            let same_maps = match (shadows, self.frame.shadow_settings) {
+                (Some(a), Some(b)) => a.size == b.size,
+                (None, None) => true,
+                _ => false,
+            };
+            if same_maps {
+                if let Some(s) = shadows {
+                    self.frame.set_shadow_settings(s)?;
+                }
+            } else {
+                self.rebuild_frame(&ctx, shadows)?;
+            }
+            self.technique = self.new_technique()?;
+            self.counters.technique_builds += 1;
+            Ok(())
+        })?
+    }
+
+    fn rebuild_frame(
+        &mut self,
+        ctx: &GpuContext,
+        shadows: Option<ShadowSettings>,
+    ) -> Result<(), RenderError> {
+        let (w, h) = self.size();
+        self.frame = FrameResources::new(ctx, &self.gpu_scene, &self.posed.scene, w, h, shadows)?;
+        self.counters.frame_builds += 1;
+        Ok(())
+    }
+
+    /// Uploads the posed scene anew, with the frame resources and technique that bind its buffers.
+    fn rebuild_scene(&mut self) -> Result<(), RenderError> {
+        self.history_valid = false;
+        let ctx = self.ctx.clone();
+        ctx.checked("uploading the moved scene", || -> Result<(), RenderError> {
+            self.gpu_scene = GpuScene::new(&ctx, &self.posed.scene)?;
+            self.counters.scene_uploads += 1;
+            self.counters.bvh_builds += 1;
+            self.rebuild_frame(&ctx, ShadowSettings::from_params(&self.params))?;
+            self.technique = self.new_technique()?;
+            self.counters.technique_builds += 1;
+            Ok(())
+        })?
+    }
+
+    /// The view data of the next frame.
+    fn next_view(&self) -> FrameView {
+        let (w, h) = self.size();
+        let view_proj = self.camera.view_projection(w as f32 / h as f32);
+        FrameView {
+            camera: self.camera,
+            view_proj,
+            prev_view_proj: self.previous_view_proj.unwrap_or(view_proj),
+            time: self.time,
+            delta_time: self.previous_time.map_or(0.0, |p| self.time - p),
+            jitter: glam::Vec2::ZERO,
+            frame_counter: self.frame_counter,
+            sample_index: self.sample_index,
+            history_valid: self.history_valid,
+        }
+    }
+
+    /// Renders one frame: its passes go into one command encoder (or one submission each with
+    /// [`TimingMode::Passes`]), submitted and waited for.
+    pub fn step(&mut self) -> Result<(), RenderError> {
+        let view = self.next_view();
+        let ctx = self.ctx.clone();
+        let start = Instant::now();
+        ctx.checked("rendering", || -> Result<(), RenderError> {
+            self.frame.set_view(&ctx, &view, self.seed);
+            self.profiler.begin_frame(&ctx);
+            if self.info.needs.gbuffer {
+                self.frame.render_inputs(&ctx, &self.gpu_scene, &mut self.profiler)?;
+            }
+            let fc = FrameContext { ctx: &ctx, gpu_scene: &self.gpu_scene, frame: &self.frame, view };
+            self.technique.render_frame(&fc, &mut self.profiler)?;
+            self.profiler.end_frame(&ctx)?;
+            Ok(())
+        })??;
+        self.frames_wall_ms += start.elapsed().as_secs_f64() * 1e3;
+        self.frames += 1;
+        let mut decade = self.frames;
+        while decade.is_multiple_of(10) {
+            decade /= 10;
+        }
+        if decade == 1 {
+            self.memory.push(MemorySample { frames: self.frames, report: self.ctx.memory_report() });
+        }
+        self.previous_view_proj = Some(view.view_proj);
+        self.previous_time = Some(self.time);
+        self.frame_counter = self.frame_counter.wrapping_add(1);
+        self.sample_index += 1;
+        self.history_valid = true;
+        Ok(())
+    }
+
+    /// The radiance of the last frame (the technique's output: accumulated where it accumulates).
+    pub fn read_image(&self) -> Result<HdrImage, RenderError> {
+        let texels = readback::read_texture(&self.ctx, &self.output, 16)?;
+        Ok(rgba_to_image(self.size(), bytemuck::cast_slice(&texels), |p| [p[0], p[1], p[2]]))
+    }
+
+    /// A G-buffer channel of the current view, rendered now if the technique does not use the G-buffer.
+    pub fn read_aov(&mut self, aov: Aov) -> Result<HdrImage, RenderError> {
+        let ctx = self.ctx.clone();
+        if !self.info.needs.gbuffer || self.frames == 0 {
+            let view = self.next_view();
+            ctx.checked("rendering the G-buffer", || -> Result<(), RenderError> {
+                self.frame.set_view(&ctx, &view, self.seed);
+                let mut profiler = Profiler::new(&ctx, TimingMode::Passes);
+                self.frame.render_inputs(&ctx, &self.gpu_scene, &mut profiler)?;
+                Ok(())
+            })??;
+        }
+        let g = &self.frame.gbuffer;
+        let size = self.size();
+        let half = |bytes: &[u8]| -> Vec<f32> {
+            bytemuck::cast_slice::<u8, u16>(bytes).iter().map(|&b| half::f16::from_bits(b).to_f32()).collect()
+        };
+        Ok(match aov {
+            Aov::Depth => {
+                let d = readback::read_texture(&ctx, &g.distance, 4)?;
+                let d: &[f32] = bytemuck::cast_slice(&d);
+                HdrImage { width: size.0, height: size.1, rgb: d.iter().flat_map(|&v| [v, v, v]).collect() }
+            }
+            Aov::Normal => {
+                let n = half(&readback::read_texture(&ctx, &g.normal, 8)?);
+                rgba_to_image(size, &n, |p| decode_octahedral(p[0], p[1]))
+            }
+            Aov::Albedo => rgba_to_image(size, &half(&readback::read_texture(&ctx, &g.albedo, 8)?), |p| {
+                [p[0], p[1], p[2]]
+            }),
+            Aov::Emission => {
+                rgba_to_image(size, &half(&readback::read_texture(&ctx, &g.emission, 8)?), |p| {
+                    [p[0], p[1], p[2]]
+                })
+            }
+        })
+    }
+
+    /// Statistics of the frames since creation (or since the last technique change).
+    pub fn stats(&mut self) -> Result<RenderStats, RenderError> {
+        let passes = self.profiler.timings();
+        let measured = Measured { passes: &passes, frames_wall_ms: self.frames_wall_ms };
+        let counters = self.technique.counters(&self.ctx, &measured)?;
+        let timestamps = match self.profiler.timestamp_status() {
+            Ok(()) => "reliable".to_string(),
+            Err(why) => why,
+        };
+        let mut memory = self.memory.clone();
+        if memory.last().is_none_or(|m| m.frames != self.frames) {
+            memory.push(MemorySample { frames: self.frames, report: self.ctx.memory_report() });
+        }
+        let mut warnings: Vec<String> = self.gpu_scene.warnings.clone();
+        warnings.extend(self.technique.warnings());
+        Ok(RenderStats {
+            scene: self.source.name.clone(),
+            technique: self.info.name.to_string(),
+            width: self.frame.width,
+            height: self.frame.height,
+            frames: self.frames,
+            adapter: self.ctx.summary.clone(),
+            wall_ms: self.frames_wall_ms,
+            setup_ms: self.setup_ms,
+            timing: self.profiler.mode(),
+            timestamps,
+            frame_wall: self.profiler.frame_wall(),
+            frame_gpu: self.profiler.frame_gpu(),
+            passes,
+            parameters: self.params.to_map(),
+            triangles: self.posed.scene.triangle_count(),
+            bvh_build_ms: self.gpu_scene.bvh_build_ms,
+            gpu_scene_bytes: self.gpu_scene.memory_bytes,
+            renderer: self.counters(),
+            time: self.time,
+            memory,
+            counters,
+            warnings,
+        })
+    }
+}
+
+fn create_technique(
+    ctx: &GpuContext,
+    scene: &Scene,
+    gpu_scene: &GpuScene,
+    frame: &FrameResources,
+    output: &wgpu::Texture,
+    info: &TechniqueInfo,
+    params: &ParamValues,
+) -> Result<Box<dyn Technique>, RenderError> {
+    (info.create)(&TechniqueSetup { ctx, scene, gpu_scene, frame, params, output })
+}
+
+/// The scene posed at `t`: a static scene as it is.
+fn pose(scene: &Scene, t: f32) -> Posed {
+    if scene.is_animated() {
+        let transforms = scene.pose_at(t).mesh_transforms;
+        let posed = scene.posed(t);
+        Posed { bounds: posed.bounds(), scene: posed, mesh_transforms: transforms }
+    } else {
+        let still = scene.clone();
+        // TEMP-ANIM-STUB still.animation = None;
+        Posed {
+            bounds: scene.bounds(),
+            mesh_transforms: vec![Mat4::IDENTITY; scene.meshes.len()],
+            scene: still,
+        }
+    }
+}
+
+fn rgba_to_image(size: (u32, u32), rgba: &[f32], rgb: impl Fn(&[f32]) -> [f32; 3]) -> HdrImage {
+    HdrImage { width: size.0, height: size.1, rgb: rgba.chunks_exact(4).flat_map(rgb).collect() }
+}
+
+/// The octahedral encoding of `common/math.wgsl` (shading normal in the G-buffer's xy), decoded.
+fn decode_octahedral(x: f32, y: f32) -> [f32; 3] {
+    let mut d = glam::Vec3::new(x, y, 1.0 - x.abs() - y.abs());
+    let t = (-d.z).clamp(0.0, 1.0);
+    d.x += if d.x >= 0.0 { -t } else { t };
+    d.y += if d.y >= 0.0 { -t } else { t };
+    d.normalize_or_zero().into()
+}
