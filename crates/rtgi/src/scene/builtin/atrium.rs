@@ -214,6 +214,7 @@ pub fn build(params: &ParamValues) -> Scene {
             zfar: 200.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }
 

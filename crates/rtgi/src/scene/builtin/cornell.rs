@@ -167,6 +167,7 @@ fn cornell_box(name: &str, lighting: Lighting) -> Scene {
         environment: Environment::None,
         camera: camera(),
         warnings: Vec::new(),
+        animation: None,
     }
 }
 

@@ -95,6 +95,7 @@ pub fn build(params: &ParamValues) -> Scene {
             zfar: 20.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }
 

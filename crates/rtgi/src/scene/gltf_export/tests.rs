@@ -137,6 +137,7 @@ pub(crate) fn representative_scene() -> Scene {
             zfar: 200.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }
 
