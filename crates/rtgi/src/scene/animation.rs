@@ -562,4 +562,4 @@ impl Mesh {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -32,6 +32,9 @@ pub const ENVIRONMENT_KEY: &str = "rtgi_environment";
 /// Key in `scenes[0].extras` holding the index of the node whose rotation turns the sun of a sky
 /// environment (see [`crate::scene::animation::Bindings::sun`]).
 pub const SUN_NODE_KEY: &str = "rtgi_sun_node";
+/// Key in `scenes[0].extras` holding the index of the animation that plays (glTF has no such notion;
+/// without it the first one plays).
+pub const ACTIVE_ANIMATION_KEY: &str = "rtgi_active_animation";
 /// Key in a camera node's `extras` holding the distance from the camera to its look-at target, which
 /// glTF cameras do not have.
 pub const TARGET_DISTANCE_KEY: &str = "rtgi_target_distance";
@@ -173,8 +176,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         });
     }
 
-    let mut scene_nodes = Vec::new();
-    let hierarchy = Hierarchy::new(&mut b, scene.animation.as_ref(), &mut scene_nodes);
+    let mut hierarchy = Hierarchy::new(&mut b, scene.animation.as_ref());
     for (i, mesh) in scene.meshes.iter().enumerate().filter(|(_, m)| m.indices.len() >= 3) {
         let bound = hierarchy.binding(|a| a.meshes.get(i));
         // A bound mesh is written in its node's local space, so that the node carries it when it moves.
@@ -182,7 +184,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         let mesh_index = b.mesh(local.as_ref().unwrap_or(mesh));
         let node =
             b.node(json::Node { mesh: Some(mesh_index), name: non_empty(&mesh.name), ..Default::default() });
-        attach(&mut b, &mut scene_nodes, bound, node);
+        hierarchy.attach(&mut b, Objects::Meshes, bound.map(|(n, _)| n), node);
     }
 
     let mut lights = Vec::new();
@@ -236,7 +238,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
             },
         };
         let node = b.node(node);
-        attach(&mut b, &mut scene_nodes, bound, node);
+        hierarchy.attach(&mut b, Objects::Lights, bound.map(|(n, _)| n), node);
     }
     if !lights.is_empty() {
         b.root.extensions = Some(lights_extension(lights));
@@ -287,22 +289,25 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         },
     };
     let node = b.node(node);
-    attach(&mut b, &mut scene_nodes, bound, node);
+    hierarchy.attach(&mut b, Objects::Camera, bound.map(|(n, _)| n), node);
 
     let environment = EnvironmentJson::from_environment(&scene.environment);
     let mut scene_extras = vec![(ENVIRONMENT_KEY, json_text(&environment)?)];
     if let Some((sun, _)) = hierarchy.binding(|a| Some(&a.sun)) {
-        scene_extras.push((SUN_NODE_KEY, json_text(&sun.value())?));
+        scene_extras.push((SUN_NODE_KEY, json_text(&hierarchy.nodes[sun].value())?));
     }
     if let Some(anim) = &scene.animation {
-        hierarchy.clips(&mut b, anim);
+        let active = hierarchy.clips(&mut b, anim);
+        if active != 0 {
+            scene_extras.push((ACTIVE_ANIMATION_KEY, json_text(&active)?));
+        }
     }
     let scene_extras = extras(&scene_extras)?;
     b.root.scenes.push(json::Scene {
         extensions: None,
         extras: Some(scene_extras),
         name: non_empty(&scene.name),
-        nodes: scene_nodes,
+        nodes: hierarchy.root_nodes(),
     });
     b.root.scene = Some(Index::new(0));
     b.finish()
@@ -402,35 +407,45 @@ fn with_local_transform(node: json::Node, m: Mat4) -> json::Node {
     }
 }
 
-/// Makes `child` a child of the node it is bound to, or a root of the scene.
-fn attach(
-    b: &mut Builder,
-    scene_nodes: &mut Vec<Index<json::Node>>,
-    parent: Option<(Index<json::Node>, Mat4)>,
-    child: Index<json::Node>,
-) {
-    match parent.and_then(|(p, _)| b.root.nodes.get_mut(p.value())) {
-        Some(parent) => parent.children.get_or_insert_with(Vec::new).push(child),
-        None => scene_nodes.push(child),
-    }
+/// The kinds of objects whose order the loader rebuilds from the node order.
+#[derive(Clone, Copy)]
+enum Objects {
+    Meshes = 0,
+    Lights = 1,
+    Camera = 2,
 }
 
-/// The glTF side of a [`SceneAnimation`]: one node per animation node (same order), and the clips.
+/// The scene's node tree: for an animated scene, one node per animation node (same order) with the
+/// objects bound to it as children; every other object a root node.
+///
+/// The loader collects meshes and lights depth-first from the scene's root nodes, so the order of
+/// the roots decides the order of the objects read back. Each kind of object asks for its roots in
+/// its own order; the roots are put in an order that satisfies all three (see [`Self::root_nodes`]).
+/// Within a node, objects come before child nodes. Objects bound under one root node that are
+/// interleaved with objects outside it (in the same kind) cannot keep their order; they come back
+/// grouped by root node.
 struct Hierarchy<'a> {
     animation: Option<&'a SceneAnimation>,
     nodes: Vec<Index<json::Node>>,
+    /// Per animation node: its root, and how many objects have been attached to it.
+    root_of: Vec<usize>,
+    objects: Vec<usize>,
+    /// Per kind of object: the root node of each object, in object order.
+    sequences: [Vec<Index<json::Node>>; 3],
 }
 
 impl<'a> Hierarchy<'a> {
-    /// Writes the animation's nodes with their rest TRS, children under their parents, roots into
-    /// `scene_nodes`. Nothing without an animation, so static scenes export as before.
-    fn new(
-        b: &mut Builder,
-        animation: Option<&'a SceneAnimation>,
-        scene_nodes: &mut Vec<Index<json::Node>>,
-    ) -> Self {
-        let mut nodes: Vec<Index<json::Node>> = Vec::new();
-        for node in animation.iter().flat_map(|a| &a.nodes) {
+    /// Writes the animation's nodes with their rest TRS and their children. Nothing without an
+    /// animation, so static scenes export as before.
+    fn new(b: &mut Builder, animation: Option<&'a SceneAnimation>) -> Self {
+        let mut h = Hierarchy {
+            animation,
+            nodes: Vec::new(),
+            root_of: Vec::new(),
+            objects: Vec::new(),
+            sequences: Default::default(),
+        };
+        for (i, node) in animation.iter().flat_map(|a| a.nodes.iter().enumerate()) {
             let index = b.node(json::Node {
                 name: non_empty(&node.name),
                 translation: Some(node.rest.translation.to_array()),
@@ -438,30 +453,105 @@ impl<'a> Hierarchy<'a> {
                 scale: Some(node.rest.scale.to_array()),
                 ..Default::default()
             });
-            let parent = node.parent.and_then(|p| nodes.get(p).map(|&i| (i, Mat4::IDENTITY)));
-            attach(b, scene_nodes, parent, index);
-            nodes.push(index);
+            let parent = node.parent.filter(|&p| p < i);
+            if let Some(p) = parent
+                && let Some(parent) = b.root.nodes.get_mut(h.nodes[p].value())
+            {
+                parent.children.get_or_insert_with(Vec::new).push(index);
+            }
+            h.root_of.push(parent.map_or(i, |p| h.root_of[p]));
+            h.nodes.push(index);
         }
-        Hierarchy { animation, nodes }
+        h.objects = vec![0; h.nodes.len()];
+        h
     }
 
-    /// The glTF node and rest world transform of the node an object is bound to, if it can carry it
-    /// (a rest transform that collapses space cannot be undone, so such objects stay in world space).
-    fn binding(
-        &self,
-        pick: impl Fn(&'a Bindings) -> Option<&'a Option<usize>>,
-    ) -> Option<(Index<json::Node>, Mat4)> {
+    /// Makes `child` the next object of animation node `parent`, or a root of the scene.
+    fn attach(&mut self, b: &mut Builder, kind: Objects, parent: Option<usize>, child: Index<json::Node>) {
+        let root = match parent.filter(|&p| p < self.nodes.len()) {
+            Some(p) => {
+                if let Some(node) = b.root.nodes.get_mut(self.nodes[p].value()) {
+                    node.children.get_or_insert_with(Vec::new).insert(self.objects[p], child);
+                    self.objects[p] += 1;
+                }
+                self.nodes[self.root_of[p]]
+            }
+            None => child,
+        };
+        self.sequences[kind as usize].push(root);
+    }
+
+    /// The scene's root nodes, ordered so that each kind of object meets its roots in its own order
+    /// where the kinds agree: a topological order of "comes before" edges between consecutive roots of
+    /// each sequence, ties (and cycles, from interleaved objects) broken by first appearance. Static
+    /// scenes get their objects' nodes in the order they were written.
+    fn root_nodes(&self) -> Vec<Index<json::Node>> {
+        use std::cmp::Reverse;
+        use std::collections::{BinaryHeap, HashMap};
+        let mut keys: Vec<Index<json::Node>> = Vec::new();
+        let mut rank: HashMap<u32, usize> = HashMap::new();
+        let unused_roots = (0..self.nodes.len()).filter(|&i| self.root_of[i] == i).map(|i| self.nodes[i]);
+        for key in self.sequences.iter().flatten().copied().chain(unused_roots) {
+            rank.entry(key.value() as u32).or_insert_with(|| {
+                keys.push(key);
+                keys.len() - 1
+            });
+        }
+        let mut successors = vec![Vec::new(); keys.len()];
+        let mut indegree = vec![0usize; keys.len()];
+        for seq in &self.sequences {
+            for w in seq.windows(2) {
+                let (a, b) = (rank[&(w[0].value() as u32)], rank[&(w[1].value() as u32)]);
+                if a != b && !successors[a].contains(&b) {
+                    successors[a].push(b);
+                    indegree[b] += 1;
+                }
+            }
+        }
+        let mut ready: BinaryHeap<Reverse<usize>> =
+            (0..keys.len()).filter(|&k| indegree[k] == 0).map(Reverse).collect();
+        let mut done = vec![false; keys.len()];
+        let mut order = Vec::with_capacity(keys.len());
+        while order.len() < keys.len() {
+            let next = match ready.pop() {
+                Some(Reverse(k)) if !done[k] => k,
+                Some(_) => continue,
+                // A cycle: take the earliest root still waiting.
+                None => (0..keys.len()).find(|&k| !done[k]).unwrap_or(0),
+            };
+            done[next] = true;
+            order.push(keys[next]);
+            for &s in &successors[next] {
+                indegree[s] = indegree[s].saturating_sub(1);
+                if indegree[s] == 0 && !done[s] {
+                    ready.push(Reverse(s));
+                }
+            }
+        }
+        order
+    }
+
+    /// The animation node an object is bound to and its rest world transform, if it can carry the
+    /// object (a rest transform that collapses space cannot be undone, so such objects stay in world
+    /// space).
+    fn binding(&self, pick: impl Fn(&'a Bindings) -> Option<&'a Option<usize>>) -> Option<(usize, Mat4)> {
         let anim = self.animation?;
         let node = (*pick(&anim.bindings)?)?;
         let rest = anim.nodes.get(node)?.rest_world;
-        (rest.determinant().abs() > 1e-12).then_some((*self.nodes.get(node)?, rest))
+        (rest.determinant().abs() > 1e-12).then_some((node, rest))
     }
 
-    /// Writes every clip, keys and interpolation as they are.
-    fn clips(&self, b: &mut Builder, anim: &SceneAnimation) {
+    /// Writes every clip, keys and interpolation as they are, and returns the glTF index of the active
+    /// one. Clips without channels are left out (glTF requires at least one; they move nothing), so an
+    /// empty active clip becomes the first written one.
+    fn clips(&self, b: &mut Builder, anim: &SceneAnimation) -> usize {
+        let mut active = 0;
         use json::accessor::{ComponentType, Type};
         use json::animation::{Interpolation as JsonInterpolation, Property as JsonProperty};
-        for clip in &anim.clips {
+        for (ci, clip) in anim.clips.iter().enumerate().filter(|(_, c)| !c.channels.is_empty()) {
+            if ci == anim.active {
+                active = b.root.animations.len();
+            }
             let mut channels = Vec::new();
             let mut samplers = Vec::new();
             for ch in &clip.channels {
@@ -514,6 +604,7 @@ impl<'a> Hierarchy<'a> {
                 samplers,
             });
         }
+        active
     }
 }
 

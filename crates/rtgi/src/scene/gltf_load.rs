@@ -28,7 +28,9 @@ use gltf::json::validation::Checked;
 use serde_json::Value;
 
 use super::animation::{AnimNode, AnimationClip, Channel, Interpolation, Property, Sampler, Trs};
-use super::gltf_export::{ENVIRONMENT_KEY, EnvironmentJson, SUN_NODE_KEY, TARGET_DISTANCE_KEY};
+use super::gltf_export::{
+    ACTIVE_ANIMATION_KEY, ENVIRONMENT_KEY, EnvironmentJson, SUN_NODE_KEY, TARGET_DISTANCE_KEY,
+};
 use super::{
     Aabb, AlphaMode, Camera, Environment, EnvironmentMap, Light, Material, Mesh, Scene, SceneAnimation,
     Texture, TextureRef, generate_tangents,
@@ -308,6 +310,7 @@ impl Loader<'_> {
         if !self.root.animations.is_empty() {
             anim.clips = self.animations(&anim_index, out)?;
             anim.bindings.sun = self.sun_node(scene_index, &anim_index, out);
+            anim.active = self.active_animation(scene_index, anim.clips.len(), out);
             out.scene.animation = Some(anim);
         }
         Ok(())
@@ -393,6 +396,25 @@ impl Loader<'_> {
             });
         }
         Ok(clips)
+    }
+
+    /// The animation to play: the one rtgi's exporter recorded in the scene extras, else the first.
+    fn active_animation(&self, scene_index: Option<usize>, clips: usize, out: &mut Output) -> usize {
+        let Some(value) = scene_index.map(|i| &self.raw["scenes"][i]["extras"][ACTIVE_ANIMATION_KEY]) else {
+            return 0;
+        };
+        if value.is_null() {
+            return 0;
+        }
+        match value.as_u64().and_then(|a| usize::try_from(a).ok()).filter(|&a| a < clips) {
+            Some(a) => a,
+            None => {
+                out.warnings.note(format!(
+                    "'{ACTIVE_ANIMATION_KEY}' extras ignored: {value} is not one of the {clips} animations"
+                ));
+                0
+            }
+        }
     }
 
     /// The node that turns the sky's sun, recorded by rtgi's exporter in the scene extras.

@@ -126,7 +126,7 @@ fn cube(name: &str, center: Vec3, half: f32) -> Mesh {
 
 /// A static floor, a cube on a node translating along +x (1 m/s for 2 s), a child node rotating 90°
 /// about y that carries a spot light and a second cube, and the camera on the parent.
-fn animated_scene() -> Scene {
+pub(crate) fn animated_scene() -> Scene {
     let mut anim = SceneAnimation::default();
     let parent =
         anim.add_node("mover", None, Trs { translation: Vec3::new(0.0, 1.0, 0.0), ..Default::default() });
@@ -159,6 +159,18 @@ fn animated_scene() -> Scene {
         ],
     });
     anim.clips.push(AnimationClip { name: "idle".into(), channels: Vec::new() });
+    anim.clips.push(AnimationClip {
+        name: "rise".into(),
+        channels: vec![Channel {
+            node: parent,
+            property: Property::Translation,
+            sampler: Sampler::new(
+                Interpolation::Step,
+                vec![0.5, 1.0],
+                vec![v3(0.0, 1.0, 0.0), v3(0.0, 1.5, 0.0)],
+            ),
+        }],
+    });
     anim.bindings = Bindings {
         meshes: vec![None, Some(parent), Some(child)],
         lights: vec![None, Some(child)],
@@ -330,8 +342,8 @@ fn select_animation_by_name_or_index() {
     scene.select_animation("0").unwrap();
     assert_eq!(scene.animation.as_ref().unwrap().active, 0);
     let err = scene.select_animation("run").unwrap_err().to_string();
-    assert!(err.contains("'run'") && err.contains("0 'move'") && err.contains("1 'idle'"), "{err}");
-    assert!(scene.select_animation("2").is_err());
+    assert!(err.contains("'run'") && err.contains("0 'move', 1 'idle', 2 'rise'"), "{err}");
+    assert!(scene.select_animation("3").is_err());
     let mut plain = Scene { name: "plain".into(), ..Default::default() };
     let err = plain.select_animation("0").unwrap_err().to_string();
     assert!(err.contains("no animations"), "{err}");
