@@ -358,3 +358,14 @@ fn hand_written_animated_gltf_round_trips() {
     let scene = load(&crate::testing::animated_gltf(dir.path()).unwrap()).unwrap();
     animation_round_trip(&scene);
 }
+
+#[test]
+fn animated_builtin_scenes_round_trip() {
+    for (name, motion) in
+        [("cornell", "box"), ("cornell-spot", "spot"), ("atrium", "camera"), ("atrium", "sun")]
+    {
+        let settings = [("animate".to_string(), motion.to_string())];
+        let scene = crate::scene::builtin::build(name, &settings).expect("built-in scene");
+        animation_round_trip(&scene);
+    }
+}
