@@ -673,8 +673,8 @@ fn pose(scene: &Scene, t: f32) -> Posed {
         let posed = scene.posed(t);
         Posed { bounds: posed.bounds(), scene: posed, mesh_transforms: transforms }
     } else {
-        let still = scene.clone();
-        // TEMP-ANIM-STUB still.animation = None;
+        let mut still = scene.clone();
+        still.animation = None;
         Posed {
             bounds: scene.bounds(),
             mesh_transforms: vec![Mat4::IDENTITY; scene.meshes.len()],

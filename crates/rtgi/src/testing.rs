@@ -3,6 +3,12 @@
 //! A test declares the scene, technique, parameters, size and thresholds; [`ImageTest::run`] renders,
 //! fetches (or renders once and caches) the reference, compares, and on failure writes the test image,
 //! the reference and the FLIP error map to `<out_dir>/<name>/` so they can be looked at.
+//!
+//! [`animated_gltf`] writes a small hand-made animated glTF file for animation tests.
+
+mod animated_gltf;
+
+pub use animated_gltf::animated_gltf;
 
 use std::path::{Path, PathBuf};
 

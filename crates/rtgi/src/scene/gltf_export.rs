@@ -3,7 +3,10 @@
 //! The output is self-contained (textures embedded as PNG in the BIN chunk) and requires no
 //! extension, so any glTF viewer opens it; rtgi-specific data that glTF cannot express (the
 //! environment, the camera's look-at distance) travels in `extras`, which other tools preserve or
-//! ignore. Geometry is already in world space, so every mesh node has an identity transform.
+//! ignore. Geometry is already in world space, so every mesh node of a static scene has an identity
+//! transform. An animated scene also gets its node hierarchy (rest TRS) and every clip; meshes, lights
+//! and the camera bound to a node become its children, their data written in its local space, so that
+//! loading the file back gives the same animation.
 
 mod compare;
 #[cfg(test)]
@@ -12,19 +15,26 @@ pub(crate) mod tests;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat4, Quat, Vec3};
 use gltf::json;
 use gltf::json::validation::{Checked, USize64};
 use gltf::json::{Index, extras::RawValue};
 use serde::{Deserialize, Serialize};
 
-use super::{AlphaMode, Environment, Light, Scene, TextureRef};
+use super::animation::{Bindings, Interpolation, Property, Trs, look_rotation};
+use super::{AlphaMode, Environment, Light, Scene, SceneAnimation, TextureRef};
 use crate::error::SceneError;
 
 pub use compare::{assert_scenes_equivalent, scene_differences};
 
 /// Key in `scenes[0].extras` holding the environment (see [`EnvironmentJson`]).
 pub const ENVIRONMENT_KEY: &str = "rtgi_environment";
+/// Key in `scenes[0].extras` holding the index of the node whose rotation turns the sun of a sky
+/// environment (see [`crate::scene::animation::Bindings::sun`]).
+pub const SUN_NODE_KEY: &str = "rtgi_sun_node";
+/// Key in `scenes[0].extras` holding the index of the animation that plays (glTF has no such notion;
+/// without it the first one plays).
+pub const ACTIVE_ANIMATION_KEY: &str = "rtgi_active_animation";
 /// Key in a camera node's `extras` holding the distance from the camera to its look-at target, which
 /// glTF cameras do not have.
 pub const TARGET_DISTANCE_KEY: &str = "rtgi_target_distance";
@@ -166,14 +176,15 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         });
     }
 
-    let mut scene_nodes = Vec::new();
-    for mesh in scene.meshes.iter().filter(|m| m.indices.len() >= 3) {
-        let mesh_index = b.mesh(mesh);
-        scene_nodes.push(b.node(json::Node {
-            mesh: Some(mesh_index),
-            name: non_empty(&mesh.name),
-            ..Default::default()
-        }));
+    let mut hierarchy = Hierarchy::new(&mut b, scene.animation.as_ref());
+    for (i, mesh) in scene.meshes.iter().enumerate().filter(|(_, m)| m.indices.len() >= 3) {
+        let bound = hierarchy.binding(|a| a.meshes.get(i));
+        // A bound mesh is written in its node's local space, so that the node carries it when it moves.
+        let local = bound.map(|(_, rest)| mesh.transformed(rest.inverse()));
+        let mesh_index = b.mesh(local.as_ref().unwrap_or(mesh));
+        let node =
+            b.node(json::Node { mesh: Some(mesh_index), name: non_empty(&mesh.name), ..Default::default() });
+        hierarchy.attach(&mut b, Objects::Meshes, bound.map(|(n, _)| n), node);
     }
 
     let mut lights = Vec::new();
@@ -208,13 +219,26 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         });
         // Lights shine along their node's −Z.
         let rotation = direction.map(|d| Quat::from_rotation_arc(Vec3::NEG_Z, d.normalize_or(Vec3::NEG_Z)));
-        scene_nodes.push(b.node(json::Node {
+        let node = json::Node {
             name: Some(format!("{} light {i}", light.kind_name())),
-            translation: position.map(|p| p.to_array()),
-            rotation: rotation.map(|q| json::scene::UnitQuaternion(q.to_array())),
             extensions: Some(light_extension(i)),
             ..Default::default()
-        }));
+        };
+        let bound = hierarchy.binding(|a| a.lights.get(i));
+        let world = Mat4::from_rotation_translation(
+            rotation.unwrap_or(Quat::IDENTITY),
+            position.unwrap_or(Vec3::ZERO),
+        );
+        let node = match bound {
+            Some((_, rest)) => with_local_transform(node, rest.inverse() * world),
+            None => json::Node {
+                translation: position.map(|p| p.to_array()),
+                rotation: rotation.map(|q| json::scene::UnitQuaternion(q.to_array())),
+                ..node
+            },
+        };
+        let node = b.node(node);
+        hierarchy.attach(&mut b, Objects::Lights, bound.map(|(n, _)| n), node);
     }
     if !lights.is_empty() {
         b.root.extensions = Some(lights_extension(lights));
@@ -244,27 +268,46 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
         extras: None,
     });
     let to_target = cam.target - cam.position;
-    let forward = to_target.normalize_or(Vec3::NEG_Z);
-    let right = forward.cross(cam.up).normalize_or(forward.any_orthonormal_vector());
-    let up = right.cross(forward);
-    let rotation = Quat::from_mat3(&Mat3::from_cols(right, up, -forward)).normalize();
-    let camera_extras = extras(TARGET_DISTANCE_KEY, &to_target.length())?;
-    scene_nodes.push(b.node(json::Node {
+    let rotation = look_rotation(to_target, cam.up);
+    let camera_extras = extras(&[(TARGET_DISTANCE_KEY, json_text(&to_target.length())?)])?;
+    let node = json::Node {
         camera: Some(Index::new(0)),
         name: Some("camera".into()),
-        translation: Some(cam.position.to_array()),
-        rotation: Some(json::scene::UnitQuaternion(rotation.to_array())),
         extras: Some(camera_extras),
         ..Default::default()
-    }));
+    };
+    let bound = hierarchy.binding(|a| Some(&a.camera));
+    let node = match bound {
+        Some((_, rest)) => with_local_transform(
+            node,
+            rest.inverse() * Mat4::from_rotation_translation(rotation, cam.position),
+        ),
+        None => json::Node {
+            translation: Some(cam.position.to_array()),
+            rotation: Some(json::scene::UnitQuaternion(rotation.to_array())),
+            ..node
+        },
+    };
+    let node = b.node(node);
+    hierarchy.attach(&mut b, Objects::Camera, bound.map(|(n, _)| n), node);
 
     let environment = EnvironmentJson::from_environment(&scene.environment);
-    let scene_extras = extras(ENVIRONMENT_KEY, &environment)?;
+    let mut scene_extras = vec![(ENVIRONMENT_KEY, json_text(&environment)?)];
+    if let Some((sun, _)) = hierarchy.binding(|a| Some(&a.sun)) {
+        scene_extras.push((SUN_NODE_KEY, json_text(&hierarchy.nodes[sun].value())?));
+    }
+    if let Some(anim) = &scene.animation {
+        let active = hierarchy.clips(&mut b, anim);
+        if active != 0 {
+            scene_extras.push((ACTIVE_ANIMATION_KEY, json_text(&active)?));
+        }
+    }
+    let scene_extras = extras(&scene_extras)?;
     b.root.scenes.push(json::Scene {
         extensions: None,
         extras: Some(scene_extras),
         name: non_empty(&scene.name),
-        nodes: scene_nodes,
+        nodes: hierarchy.root_nodes(),
     });
     b.root.scene = Some(Index::new(0));
     b.finish()
@@ -318,20 +361,251 @@ fn le_f32(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
 
 /// A JSON array of the shortest decimals that read back as the same f32s (a plain f32 → f64 widening
 /// would print `0.10000000149011612`).
-fn json_f32s(v: Vec3) -> serde_json::Value {
-    v.to_array().iter().map(|x| x.to_string().parse::<f64>().unwrap_or(f64::from(*x))).collect()
+fn json_f32s(v: &[f32]) -> serde_json::Value {
+    v.iter().map(|x| x.to_string().parse::<f64>().unwrap_or(f64::from(*x))).collect()
 }
 
 fn non_empty(s: &str) -> Option<String> {
     (!s.is_empty()).then(|| s.to_string())
 }
 
-/// `{key: value}` as raw JSON. Serialised straight to text (not through `serde_json::Value`, which
-/// widens f32 to f64) so that floats read `0.1`, not `0.10000000149011612`.
-fn extras(key: &str, value: &impl Serialize) -> Result<Box<RawValue>, String> {
-    let map = BTreeMap::from([(key, value)]);
-    let text = serde_json::to_string(&map).map_err(|e| format!("cannot encode extras: {e}"))?;
+/// `value` as JSON text. Serialised straight to text (not through `serde_json::Value`, which widens
+/// f32 to f64) so that floats read `0.1`, not `0.10000000149011612`.
+fn json_text(value: &impl Serialize) -> Result<String, String> {
+    serde_json::to_string(value).map_err(|e| format!("cannot encode extras: {e}"))
+}
+
+/// `{key: value, ...}` as raw JSON, from values already encoded by [`json_text`].
+fn extras(entries: &[(&str, String)]) -> Result<Box<RawValue>, String> {
+    let mut text = String::from("{");
+    for (i, (key, value)) in entries.iter().enumerate() {
+        if i > 0 {
+            text.push(',');
+        }
+        text += &json_text(key)?;
+        text.push(':');
+        text += value;
+    }
+    text.push('}');
     RawValue::from_string(text).map_err(|e| format!("cannot encode extras: {e}"))
+}
+
+/// `node` placed by the local transform `m`: as TRS when that represents `m` exactly (what viewers
+/// prefer), else as a matrix (a shear, from a non-uniformly scaled and rotated parent).
+fn with_local_transform(node: json::Node, m: Mat4) -> json::Node {
+    let trs = Trs::from_matrix(m);
+    let scale = m.abs().to_cols_array().into_iter().fold(1.0f32, f32::max);
+    if trs.matrix().abs_diff_eq(m, 1e-6 * scale) {
+        json::Node {
+            translation: Some(trs.translation.to_array()),
+            rotation: Some(json::scene::UnitQuaternion(trs.rotation.to_array())),
+            scale: Some(trs.scale.to_array()),
+            ..node
+        }
+    } else {
+        json::Node { matrix: Some(m.to_cols_array()), ..node }
+    }
+}
+
+/// The kinds of objects whose order the loader rebuilds from the node order.
+#[derive(Clone, Copy)]
+enum Objects {
+    Meshes = 0,
+    Lights = 1,
+    Camera = 2,
+}
+
+/// The scene's node tree: for an animated scene, one node per animation node (same order) with the
+/// objects bound to it as children; every other object a root node.
+///
+/// The loader collects meshes and lights depth-first from the scene's root nodes, so the order of
+/// the roots decides the order of the objects read back. Each kind of object asks for its roots in
+/// its own order; the roots are put in an order that satisfies all three (see [`Self::root_nodes`]).
+/// Within a node, objects come before child nodes. Objects bound under one root node that are
+/// interleaved with objects outside it (in the same kind) cannot keep their order; they come back
+/// grouped by root node.
+struct Hierarchy<'a> {
+    animation: Option<&'a SceneAnimation>,
+    nodes: Vec<Index<json::Node>>,
+    /// Per animation node: its root, and how many objects have been attached to it.
+    root_of: Vec<usize>,
+    objects: Vec<usize>,
+    /// Per kind of object: the root node of each object, in object order.
+    sequences: [Vec<Index<json::Node>>; 3],
+}
+
+impl<'a> Hierarchy<'a> {
+    /// Writes the animation's nodes with their rest TRS and their children. Nothing without an
+    /// animation, so static scenes export as before.
+    fn new(b: &mut Builder, animation: Option<&'a SceneAnimation>) -> Self {
+        let mut h = Hierarchy {
+            animation,
+            nodes: Vec::new(),
+            root_of: Vec::new(),
+            objects: Vec::new(),
+            sequences: Default::default(),
+        };
+        for (i, node) in animation.iter().flat_map(|a| a.nodes.iter().enumerate()) {
+            let index = b.node(json::Node {
+                name: non_empty(&node.name),
+                translation: Some(node.rest.translation.to_array()),
+                rotation: Some(json::scene::UnitQuaternion(node.rest.rotation.to_array())),
+                scale: Some(node.rest.scale.to_array()),
+                ..Default::default()
+            });
+            let parent = node.parent.filter(|&p| p < i);
+            if let Some(p) = parent
+                && let Some(parent) = b.root.nodes.get_mut(h.nodes[p].value())
+            {
+                parent.children.get_or_insert_with(Vec::new).push(index);
+            }
+            h.root_of.push(parent.map_or(i, |p| h.root_of[p]));
+            h.nodes.push(index);
+        }
+        h.objects = vec![0; h.nodes.len()];
+        h
+    }
+
+    /// Makes `child` the next object of animation node `parent`, or a root of the scene.
+    fn attach(&mut self, b: &mut Builder, kind: Objects, parent: Option<usize>, child: Index<json::Node>) {
+        let root = match parent.filter(|&p| p < self.nodes.len()) {
+            Some(p) => {
+                if let Some(node) = b.root.nodes.get_mut(self.nodes[p].value()) {
+                    node.children.get_or_insert_with(Vec::new).insert(self.objects[p], child);
+                    self.objects[p] += 1;
+                }
+                self.nodes[self.root_of[p]]
+            }
+            None => child,
+        };
+        self.sequences[kind as usize].push(root);
+    }
+
+    /// The scene's root nodes, ordered so that each kind of object meets its roots in its own order
+    /// where the kinds agree: a topological order of "comes before" edges between consecutive roots of
+    /// each sequence, ties (and cycles, from interleaved objects) broken by first appearance. Static
+    /// scenes get their objects' nodes in the order they were written.
+    fn root_nodes(&self) -> Vec<Index<json::Node>> {
+        use std::cmp::Reverse;
+        use std::collections::{BinaryHeap, HashMap};
+        let mut keys: Vec<Index<json::Node>> = Vec::new();
+        let mut rank: HashMap<u32, usize> = HashMap::new();
+        let unused_roots = (0..self.nodes.len()).filter(|&i| self.root_of[i] == i).map(|i| self.nodes[i]);
+        for key in self.sequences.iter().flatten().copied().chain(unused_roots) {
+            rank.entry(key.value() as u32).or_insert_with(|| {
+                keys.push(key);
+                keys.len() - 1
+            });
+        }
+        let mut successors = vec![Vec::new(); keys.len()];
+        let mut indegree = vec![0usize; keys.len()];
+        for seq in &self.sequences {
+            for w in seq.windows(2) {
+                let (a, b) = (rank[&(w[0].value() as u32)], rank[&(w[1].value() as u32)]);
+                if a != b && !successors[a].contains(&b) {
+                    successors[a].push(b);
+                    indegree[b] += 1;
+                }
+            }
+        }
+        let mut ready: BinaryHeap<Reverse<usize>> =
+            (0..keys.len()).filter(|&k| indegree[k] == 0).map(Reverse).collect();
+        let mut done = vec![false; keys.len()];
+        let mut order = Vec::with_capacity(keys.len());
+        while order.len() < keys.len() {
+            let next = match ready.pop() {
+                Some(Reverse(k)) if !done[k] => k,
+                Some(_) => continue,
+                // A cycle: take the earliest root still waiting.
+                None => (0..keys.len()).find(|&k| !done[k]).unwrap_or(0),
+            };
+            done[next] = true;
+            order.push(keys[next]);
+            for &s in &successors[next] {
+                indegree[s] = indegree[s].saturating_sub(1);
+                if indegree[s] == 0 && !done[s] {
+                    ready.push(Reverse(s));
+                }
+            }
+        }
+        order
+    }
+
+    /// The animation node an object is bound to and its rest world transform, if it can carry the
+    /// object (a rest transform that collapses space cannot be undone, so such objects stay in world
+    /// space).
+    fn binding(&self, pick: impl Fn(&'a Bindings) -> Option<&'a Option<usize>>) -> Option<(usize, Mat4)> {
+        let anim = self.animation?;
+        let node = (*pick(&anim.bindings)?)?;
+        let rest = anim.nodes.get(node)?.rest_world;
+        (rest.determinant().abs() > 1e-12).then_some((node, rest))
+    }
+
+    /// Writes every clip, keys and interpolation as they are, and returns the glTF index of the active
+    /// one. Clips without channels are left out (glTF requires at least one; they move nothing), so an
+    /// empty active clip becomes the first written one.
+    fn clips(&self, b: &mut Builder, anim: &SceneAnimation) -> usize {
+        let mut active = 0;
+        use json::accessor::{ComponentType, Type};
+        use json::animation::{Interpolation as JsonInterpolation, Property as JsonProperty};
+        for (ci, clip) in anim.clips.iter().enumerate().filter(|(_, c)| !c.channels.is_empty()) {
+            if ci == anim.active {
+                active = b.root.animations.len();
+            }
+            let mut channels = Vec::new();
+            let mut samplers = Vec::new();
+            for ch in &clip.channels {
+                let Some(&node) = self.nodes.get(ch.node) else { continue };
+                let s = &ch.sampler;
+                let (lo, hi) = s.range();
+                let input = b.accessor(
+                    &le_f32(s.times.iter().copied()),
+                    s.times.len(),
+                    ComponentType::F32,
+                    Type::Scalar,
+                    Some((&[lo], &[hi])),
+                );
+                let (components, type_, path) = match ch.property {
+                    Property::Translation => (3, Type::Vec3, JsonProperty::Translation),
+                    Property::Rotation => (4, Type::Vec4, JsonProperty::Rotation),
+                    Property::Scale => (3, Type::Vec3, JsonProperty::Scale),
+                };
+                let values = le_f32(s.values.iter().flat_map(|v| v.to_array().into_iter().take(components)));
+                let output = b.accessor(&values, s.values.len(), ComponentType::F32, type_, None);
+                let interpolation = match s.interpolation {
+                    Interpolation::Step => JsonInterpolation::Step,
+                    Interpolation::Linear => JsonInterpolation::Linear,
+                    Interpolation::CubicSpline => JsonInterpolation::CubicSpline,
+                };
+                samplers.push(json::animation::Sampler {
+                    extensions: None,
+                    extras: None,
+                    input,
+                    interpolation: Checked::Valid(interpolation),
+                    output,
+                });
+                channels.push(json::animation::Channel {
+                    sampler: Index::new(samplers.len() as u32 - 1),
+                    target: json::animation::Target {
+                        extensions: None,
+                        extras: None,
+                        node,
+                        path: Checked::Valid(path),
+                    },
+                    extensions: None,
+                    extras: None,
+                });
+            }
+            b.root.animations.push(json::Animation {
+                extensions: None,
+                extras: None,
+                channels,
+                name: non_empty(&clip.name),
+                samplers,
+            });
+        }
+        active
+    }
 }
 
 fn encode_png(t: &super::Texture) -> Result<Vec<u8>, String> {
@@ -376,7 +650,7 @@ impl Builder {
         count: usize,
         component: json::accessor::ComponentType,
         type_: json::accessor::Type,
-        bounds: Option<(Vec3, Vec3)>,
+        bounds: Option<(&[f32], &[f32])>,
     ) -> Index<json::Accessor> {
         use json::accessor::ComponentType;
         let target = match component {
@@ -414,7 +688,7 @@ impl Builder {
             n,
             ComponentType::F32,
             Type::Vec3,
-            Some((lo, hi)),
+            Some((&lo.to_array(), &hi.to_array())),
         );
         attributes.insert(Checked::Valid(Semantic::Positions), pos);
         let nrm = self.accessor(

@@ -6,10 +6,12 @@
 //! reference, byte range and index value is checked, and every failure becomes a
 //! [`SceneError::File`] naming the file and what is wrong with it.
 //!
-//! Anything rtgi reads but cannot render (optional extensions, occlusion maps, morph targets, …) is
-//! reported in [`Scene::warnings`] rather than dropped silently.
+//! Anything rtgi reads but cannot render (optional extensions, occlusion maps, morph targets, skins,
+//! morph-target weight animation, …) is reported in [`Scene::warnings`] rather than dropped silently.
 
 mod accessor;
+#[cfg(test)]
+mod animation_tests;
 mod container;
 #[cfg(test)]
 mod tests;
@@ -19,16 +21,19 @@ use std::cell::OnceCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::json;
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 use serde_json::Value;
 
-use super::gltf_export::{ENVIRONMENT_KEY, EnvironmentJson, TARGET_DISTANCE_KEY};
+use super::animation::{AnimNode, AnimationClip, Channel, Interpolation, Property, Sampler, Trs};
+use super::gltf_export::{
+    ACTIVE_ANIMATION_KEY, ENVIRONMENT_KEY, EnvironmentJson, SUN_NODE_KEY, TARGET_DISTANCE_KEY,
+};
 use super::{
-    Aabb, AlphaMode, Camera, Environment, EnvironmentMap, Light, Material, Mesh, Scene, Texture, TextureRef,
-    generate_tangents,
+    Aabb, AlphaMode, Camera, Environment, EnvironmentMap, Light, Material, Mesh, Scene, SceneAnimation,
+    Texture, TextureRef, generate_tangents,
 };
 use crate::error::SceneError;
 
@@ -47,7 +52,10 @@ const MATERIAL_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength", "KHR_m
 /// Loads a `.gltf` or `.glb` file into a world-space [`Scene`].
 ///
 /// The default scene (or the first one, or else every root node) is flattened: node transforms are
-/// baked into the vertices, lights and the first camera are placed in world space.
+/// baked into the vertices, lights and the first camera are placed in world space. Files with
+/// animations also keep the node hierarchy, every animation's translation, rotation and scale
+/// channels (the first animation active) and which node each mesh, light and the camera follow, in
+/// [`Scene::animation`]; the flattened data is the rest pose.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     load_inner(path).map_err(|message| SceneError::file(path, message))
 }
@@ -209,13 +217,6 @@ fn quoted_name(kind: &str, index: usize, name: &Option<String>) -> String {
 
 impl Loader<'_> {
     fn run(&self, out: &mut Output) -> Result<(), String> {
-        if !self.root.animations.is_empty() {
-            out.warnings.note(format!(
-                "{} animation(s) ignored (rtgi renders the static pose)",
-                self.root.animations.len()
-            ));
-        }
-
         for i in 0..self.root.materials.len() {
             let material = self.material(i, out)?;
             out.scene.materials.push(material);
@@ -225,8 +226,12 @@ impl Loader<'_> {
         let mut camera = None;
         let mut cameras_seen = 0usize;
         let mut visited = vec![false; self.root.nodes.len()];
-        let mut stack: Vec<(usize, Mat4)> = roots.iter().rev().map(|&n| (n, Mat4::IDENTITY)).collect();
-        while let Some((ni, parent)) = stack.pop() {
+        // The hierarchy is kept for animation; the depth-first order puts parents before children.
+        let mut anim = SceneAnimation::default();
+        let mut anim_index: Vec<Option<usize>> = vec![None; self.root.nodes.len()];
+        let mut stack: Vec<(usize, Mat4, Option<usize>)> =
+            roots.iter().rev().map(|&n| (n, Mat4::IDENTITY, None)).collect();
+        while let Some((ni, parent, parent_anim)) = stack.pop() {
             let node = self.root.nodes.get(ni).ok_or_else(|| {
                 format!("node {ni} does not exist (the file has {} nodes)", self.root.nodes.len())
             })?;
@@ -240,29 +245,54 @@ impl Loader<'_> {
                 Some(seen) => *seen = true,
                 None => return Err(format!("node {ni} does not exist")),
             }
-            let world = parent * local_transform(node).map_err(|e| format!("{label}: {e}"))?;
+            let local = local_transform(node).map_err(|e| format!("{label}: {e}"))?;
+            let world = parent * local;
+            let rest = match node.matrix {
+                Some(_) => Trs::from_matrix(local),
+                None => rest_trs(node).map_err(|e| format!("{label}: {e}"))?,
+            };
+            let name = node.name.clone().unwrap_or_else(|| format!("node {ni}"));
+            anim.nodes.push(AnimNode { name, parent: parent_anim, rest, rest_world: world });
+            let this = anim.nodes.len() - 1;
+            anim_index[ni] = Some(this);
+            // A node whose rest transform collapses space cannot be undone to place its objects at
+            // another time; they stay static.
+            let bindable = world.determinant().abs() > 1e-12;
+            let (meshes_before, lights_before) = (out.scene.meshes.len(), out.scene.lights.len());
 
             if let Some(mesh) = node.mesh {
                 let mesh_world = if node.skin.is_some() {
-                    out.warnings.about("skin ignored; mesh drawn in its bind pose", label.clone());
+                    out.warnings
+                        .about("skin ignored; mesh drawn in its bind pose, not animated", label.clone());
                     // The spec says a skinned mesh ignores its node's transform (joints place it).
                     Mat4::IDENTITY
                 } else {
                     world
                 };
                 self.mesh(mesh.value(), &label, mesh_world, out)?;
+                if node.skin.is_none() && bindable {
+                    anim.bindings.meshes.resize(meshes_before, None);
+                    anim.bindings.meshes.resize(out.scene.meshes.len(), Some(this));
+                }
             }
             if let Some(cam) = node.camera {
                 cameras_seen += 1;
                 if cameras_seen == 1 {
                     camera = self.camera(cam.value(), ni, &label, world, out)?;
+                    if camera.is_some() && bindable {
+                        anim.bindings.camera = Some(this);
+                    }
                 }
             }
             if let Some(light) = node.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
                 self.light(light.light.value(), &label, world, out)?;
+                if out.scene.lights.len() > lights_before && bindable {
+                    anim.bindings.lights.resize(lights_before, None);
+                    anim.bindings.lights.push(Some(this));
+                }
             }
             if let Some(children) = &node.children {
-                stack.extend(children.iter().rev().map(|c| (c.value(), world)));
+                stack.extend(children.iter().rev().map(|c| (c.value(), world, Some(this))));
             }
         }
         // Extensions already reported per material are not repeated here.
@@ -277,7 +307,133 @@ impl Loader<'_> {
         }
         out.scene.camera = camera.unwrap_or_else(|| framing_camera(out.scene.bounds()));
         out.scene.environment = self.environment(scene_index, out)?;
+        if !self.root.animations.is_empty() {
+            anim.clips = self.animations(&anim_index, out)?;
+            anim.bindings.sun = self.sun_node(scene_index, &anim_index, out);
+            anim.active = self.active_animation(scene_index, anim.clips.len(), out);
+            out.scene.animation = Some(anim);
+        }
         Ok(())
+    }
+
+    /// Every animation as a clip. Channels rtgi cannot play are named in warnings; malformed ones
+    /// are errors.
+    fn animations(
+        &self,
+        anim_index: &[Option<usize>],
+        out: &mut Output,
+    ) -> Result<Vec<AnimationClip>, String> {
+        use json::animation::{Interpolation as JsonInterpolation, Property as JsonProperty};
+        let mut clips = Vec::new();
+        for (ai, animation) in self.root.animations.iter().enumerate() {
+            let label = quoted_name("animation", ai, &animation.name);
+            let mut channels: Vec<Channel> = Vec::new();
+            for (ci, channel) in animation.channels.iter().enumerate() {
+                let ctx = format!("{label} channel {ci}");
+                let node = channel.target.node.value();
+                if node >= self.root.nodes.len() {
+                    return Err(format!(
+                        "{ctx} targets node {node}, which does not exist (the file has {} nodes)",
+                        self.root.nodes.len()
+                    ));
+                }
+                let property = match channel.target.path {
+                    Checked::Valid(JsonProperty::Translation) => Property::Translation,
+                    Checked::Valid(JsonProperty::Rotation) => Property::Rotation,
+                    Checked::Valid(JsonProperty::Scale) => Property::Scale,
+                    Checked::Valid(JsonProperty::MorphTargetWeights) => {
+                        out.warnings.about(
+                            "morph-target 'weights' channels ignored (rtgi has no morph targets)",
+                            label.clone(),
+                        );
+                        continue;
+                    }
+                    Checked::Invalid => return Err(format!("{ctx}: invalid target path")),
+                };
+                let sampler_index = channel.sampler.value();
+                let sampler = animation.samplers.get(sampler_index).ok_or_else(|| {
+                    format!(
+                        "{ctx} refers to sampler {sampler_index}, which does not exist (the animation has {} samplers)",
+                        animation.samplers.len()
+                    )
+                })?;
+                let interpolation = match sampler.interpolation {
+                    Checked::Valid(JsonInterpolation::Step) => Interpolation::Step,
+                    Checked::Valid(JsonInterpolation::Linear) => Interpolation::Linear,
+                    Checked::Valid(JsonInterpolation::CubicSpline) => Interpolation::CubicSpline,
+                    Checked::Invalid => {
+                        return Err(format!("{ctx}: sampler {sampler_index} has an invalid interpolation"));
+                    }
+                };
+                let times = self.read_times(sampler.input.value(), &format!("{ctx} input"))?;
+                let what = format!("{ctx} {} output", property.gltf_name());
+                let values = match property {
+                    Property::Rotation => self.read_vec4(sampler.output.value(), &what)?,
+                    _ => self
+                        .read_vec3(sampler.output.value(), &what)?
+                        .into_iter()
+                        .map(|v| v.extend(0.0))
+                        .collect(),
+                };
+                let keys = Sampler::new(interpolation, times, values);
+                keys.check().map_err(|e| format!("{ctx} (sampler {sampler_index}): {e}"))?;
+                let Some(target) = anim_index[node] else {
+                    out.warnings
+                        .about("channels targeting nodes outside the loaded scene ignored", label.clone());
+                    continue;
+                };
+                if let Some(k) = channels.iter().position(|c| c.node == target && c.property == property) {
+                    return Err(format!(
+                        "{ctx} animates the {} of node {node} again (an earlier channel, {k}, already does)",
+                        property.gltf_name()
+                    ));
+                }
+                channels.push(Channel { node: target, property, sampler: keys });
+            }
+            clips.push(AnimationClip {
+                name: animation.name.clone().unwrap_or_else(|| format!("animation {ai}")),
+                channels,
+            });
+        }
+        Ok(clips)
+    }
+
+    /// The animation to play: the one rtgi's exporter recorded in the scene extras, else the first.
+    fn active_animation(&self, scene_index: Option<usize>, clips: usize, out: &mut Output) -> usize {
+        let Some(value) = scene_index.map(|i| &self.raw["scenes"][i]["extras"][ACTIVE_ANIMATION_KEY]) else {
+            return 0;
+        };
+        if value.is_null() {
+            return 0;
+        }
+        match value.as_u64().and_then(|a| usize::try_from(a).ok()).filter(|&a| a < clips) {
+            Some(a) => a,
+            None => {
+                out.warnings.note(format!(
+                    "'{ACTIVE_ANIMATION_KEY}' extras ignored: {value} is not one of the {clips} animations"
+                ));
+                0
+            }
+        }
+    }
+
+    /// The node that turns the sky's sun, recorded by rtgi's exporter in the scene extras.
+    fn sun_node(
+        &self,
+        scene_index: Option<usize>,
+        anim_index: &[Option<usize>],
+        out: &mut Output,
+    ) -> Option<usize> {
+        let value = &self.raw["scenes"][scene_index?]["extras"][SUN_NODE_KEY];
+        if value.is_null() {
+            return None;
+        }
+        let node = value.as_u64().and_then(|n| anim_index.get(usize::try_from(n).ok()?).copied().flatten());
+        if node.is_none() {
+            out.warnings
+                .note(format!("'{SUN_NODE_KEY}' extras ignored: {value} is not a node of the loaded scene"));
+        }
+        node
     }
 
     /// The nodes to draw: the default scene's, else the first scene's, else every node that is nobody's
@@ -403,36 +559,15 @@ impl Loader<'_> {
                 None => out.default_material(),
             };
 
-            // Bake the node transform. Normals use the inverse transpose — computed as the cofactor
-            // matrix times sign(det), which stays finite for degenerate (zero-scale) nodes.
-            let m3 = Mat3::from_mat4(world);
-            let det = m3.determinant();
             let mut normals = normals;
             let mut tangents = tangents;
-            if world != Mat4::IDENTITY {
-                for p in &mut positions {
-                    *p = world.transform_point3(*p);
-                }
-                let cofactor = Mat3::from_cols(
-                    m3.y_axis.cross(m3.z_axis),
-                    m3.z_axis.cross(m3.x_axis),
-                    m3.x_axis.cross(m3.y_axis),
-                );
-                let normal_matrix = if det < 0.0 { -cofactor } else { cofactor };
-                for nrm in normals.iter_mut().flatten() {
-                    *nrm = normal_matrix * *nrm;
-                }
-                for t in tangents.iter_mut().flatten() {
-                    let w = if det < 0.0 { -t.w } else { t.w };
-                    *t = (m3 * t.truncate()).extend(w);
-                }
-            }
-            if det < 0.0 {
-                // A mirroring transform turns counter-clockwise triangles clockwise.
-                for tri in indices.chunks_exact_mut(3) {
-                    tri.swap(1, 2);
-                }
-            }
+            super::transform_vertices(
+                world,
+                &mut positions,
+                normals.as_deref_mut().unwrap_or_default(),
+                tangents.as_deref_mut().unwrap_or_default(),
+                &mut indices,
+            );
 
             let (positions, normals, uvs, indices) = match normals {
                 Some(normals) => {
@@ -866,9 +1001,14 @@ fn object_keys(v: &Value) -> impl Iterator<Item = &str> {
 
 /// A node's local matrix from `matrix` or TRS.
 fn local_transform(node: &json::Node) -> Result<Mat4, String> {
-    if let Some(m) = node.matrix {
-        return Ok(Mat4::from_cols_array(&m));
+    match node.matrix {
+        Some(m) => Ok(Mat4::from_cols_array(&m)),
+        None => Ok(rest_trs(node)?.matrix()),
     }
+}
+
+/// A node's TRS properties, with the rotation normalised.
+fn rest_trs(node: &json::Node) -> Result<Trs, String> {
     let t = node.translation.map_or(Vec3::ZERO, Vec3::from);
     let s = node.scale.map_or(Vec3::ONE, Vec3::from);
     let r = match node.rotation {
@@ -882,7 +1022,7 @@ fn local_transform(node: &json::Node) -> Result<Mat4, String> {
             q / len
         }
     };
-    Ok(Mat4::from_scale_rotation_translation(s, r, t))
+    Ok(Trs { translation: t, rotation: r, scale: s })
 }
 
 /// glTF strip order: triangle i is (i, i+1, i+2) for even i and (i, i+2, i+1) for odd i, which keeps

@@ -1,8 +1,10 @@
 //! The scene model: plain CPU data, no GPU types.
 //!
 //! Built-in procedural scenes and the glTF loader both produce a [`Scene`]. Geometry is stored in world
-//! space (node transforms are baked in at load time) because every technique in rtgi works on static
-//! geometry and the BVH wants world-space triangles anyway.
+//! space (node transforms are baked in at load time) because the BVH and every technique want
+//! world-space triangles. Animated scenes store their rest pose that way and add a
+//! [`SceneAnimation`] (see [`animation`]) that poses it at any time: [`Scene::pose_at`] gives per-mesh
+//! transforms, lights and camera, [`Scene::posed`] a static world-space copy.
 //!
 //! Units: metres for lengths. Radiometric quantities are linear RGB:
 //! - emissive materials: emitted radiance (W·sr⁻¹·m⁻²), `KHR_materials_emissive_strength` folded in;
@@ -13,11 +15,14 @@
 //! rtgi does no photometric conversion (no division by 683 lm/W): a glTF light of intensity 10 is
 //! 10 W·sr⁻¹ here. This keeps analytic tests exact and scenes portable between techniques.
 
+pub mod animation;
 pub mod builtin;
 pub mod gltf_export;
 pub mod gltf_load;
 
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+
+pub use animation::{Pose, SceneAnimation};
 
 /// A renderable scene.
 #[derive(Clone, Debug, Default)]
@@ -32,6 +37,9 @@ pub struct Scene {
     /// Features of the source file that rtgi read but does not render (e.g. a glTF extension that is
     /// optional). Loaders report them here instead of dropping them silently; the CLI prints them.
     pub warnings: Vec<String>,
+    /// Keyframed motion of the meshes, lights, camera and sky sun; `None` for a static scene. The
+    /// fields above hold the rest pose.
+    pub animation: Option<SceneAnimation>,
 }
 
 /// A triangle mesh in world space. All attribute arrays have one entry per vertex.
@@ -393,7 +401,47 @@ impl Scene {
                 ));
             }
         }
+        if let Some(anim) = &self.animation {
+            anim.validate(self.meshes.len(), self.lights.len()).map_err(|e| format!("animation: {e}"))?;
+        }
         Ok(())
+    }
+}
+
+/// Applies the affine transform `m` to vertex data in place: positions by `m`, normals by its inverse
+/// transpose (computed as the cofactor matrix times sign(det), which stays finite for degenerate,
+/// zero-scale transforms; not renormalised), tangents by its linear part with their handedness
+/// flipped when `m` mirrors. A mirroring transform also turns counter-clockwise triangles clockwise,
+/// so their winding is swapped back.
+pub(crate) fn transform_vertices(
+    m: Mat4,
+    positions: &mut [Vec3],
+    normals: &mut [Vec3],
+    tangents: &mut [Vec4],
+    indices: &mut [u32],
+) {
+    if m == Mat4::IDENTITY {
+        return;
+    }
+    let m3 = Mat3::from_mat4(m);
+    let det = m3.determinant();
+    for p in positions {
+        *p = m.transform_point3(*p);
+    }
+    let cofactor =
+        Mat3::from_cols(m3.y_axis.cross(m3.z_axis), m3.z_axis.cross(m3.x_axis), m3.x_axis.cross(m3.y_axis));
+    let normal_matrix = if det < 0.0 { -cofactor } else { cofactor };
+    for n in normals {
+        *n = normal_matrix * *n;
+    }
+    for t in tangents {
+        let w = if det < 0.0 { -t.w } else { t.w };
+        *t = (m3 * t.truncate()).extend(w);
+    }
+    if det < 0.0 {
+        for tri in indices.chunks_exact_mut(3) {
+            tri.swap(1, 2);
+        }
     }
 }
 
@@ -449,23 +497,4 @@ pub fn generate_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], ind
             t.extend(w)
         })
         .collect()
-}
-
-// TEMP-ANIM-STUB
-pub struct Pose {
-    pub mesh_transforms: Vec<Mat4>,
-}
-impl Scene {
-    pub fn is_animated(&self) -> bool {
-        false
-    }
-    pub fn pose_at(&self, _t: f32) -> Pose {
-        Pose { mesh_transforms: vec![Mat4::IDENTITY; self.meshes.len()] }
-    }
-    pub fn posed(&self, _t: f32) -> Scene {
-        self.clone()
-    }
-    pub fn select_animation(&mut self, _n: &str) -> Result<(), crate::SceneError> {
-        Ok(())
-    }
 }

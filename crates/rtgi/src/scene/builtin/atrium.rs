@@ -22,12 +22,32 @@ use super::shapes::{MeshBuilder, hash_unit, subdivide};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::scene::{Camera, Environment, Light, Material, Scene};
 
-pub const PARAMS: &[ParamSpec] = &[ParamSpec {
-    name: "detail",
-    kind: ParamKind::Int { min: 1, max: 5 },
-    default: "1",
-    doc: "tessellation level: 1 ≈ 55 K triangles, 2 ≈ 170 K, 3 ≈ 350 K, 4 ≈ 760 K, 5 ≈ 1.4 M",
-}];
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "detail",
+        kind: ParamKind::Int { min: 1, max: 5 },
+        default: "1",
+        doc: "tessellation level: 1 ≈ 55 K triangles, 2 ≈ 170 K, 3 ≈ 350 K, 4 ≈ 760 K, 5 ≈ 1.4 M",
+    },
+    super::motion::animate_param(
+        &["none", "camera", "sun"],
+        "camera: a 10 s camera flight around the court (CUBICSPLINE path, LINEAR turns); sun: the sun (and \
+         the sky's sun glow) turns once about the vertical in 8 s",
+    ),
+];
+
+/// The camera flight of `atrium:animate=camera`: key positions and the points looked at, every
+/// [`FLIGHT_SECONDS`] / 6 s, a loop around the court at 1.7–3.5 m, 2 m or more from the arcades.
+const FLIGHT: [(Vec3, Vec3); 6] = [
+    (Vec3::new(-13.0, 1.7, 0.0), Vec3::new(10.0, 4.5, 0.0)),
+    (Vec3::new(-5.0, 2.5, -3.5), Vec3::new(4.0, 3.0, 0.5)),
+    (Vec3::new(6.0, 3.5, -3.0), Vec3::new(13.0, 2.5, 2.0)),
+    (Vec3::new(12.0, 2.5, 0.0), Vec3::new(0.0, 3.0, 0.0)),
+    (Vec3::new(5.0, 2.0, 3.5), Vec3::new(-6.0, 2.5, 0.0)),
+    (Vec3::new(-6.0, 2.0, 3.5), Vec3::new(-15.0, 3.0, -3.0)),
+];
+pub const FLIGHT_SECONDS: f32 = 10.0;
+pub const SUN_TURN_SECONDS: f32 = 8.0;
 
 /// Tessellation per detail level.
 struct Detail {
@@ -131,6 +151,65 @@ const ROOF: u32 = 5;
 const CLOTH: [u32; 3] = [6, 7, 8];
 
 pub fn build(params: &ParamValues) -> Scene {
+    let mut scene = courtyard(params);
+    match params.choice("animate") {
+        "camera" => camera_flight(&mut scene),
+        "sun" => {
+            let times: Vec<f32> = (0..5).map(|k| k as f32 * SUN_TURN_SECONDS / 4.0).collect();
+            let node = super::motion::sweep_light(
+                &mut scene,
+                "sun-turn",
+                0,
+                Vec3::Y,
+                &times,
+                &[0.0, 90.0, 180.0, 270.0, 360.0],
+            );
+            if let Some(anim) = scene.animation.as_mut() {
+                anim.bindings.sun = Some(node);
+            }
+        }
+        _ => {}
+    }
+    scene
+}
+
+/// Binds the camera to a node flying [`FLIGHT`] as a closed loop: positions on a Catmull-Rom spline
+/// (CUBICSPLINE keys with tangents (p[k+1] − p[k−1]) / 2Δt, wrapping around), orientations slerped.
+fn camera_flight(scene: &mut Scene) {
+    use crate::scene::animation::{Interpolation, Property, Sampler, Trs, look_rotation};
+    let n = FLIGHT.len();
+    let dt = FLIGHT_SECONDS / n as f32;
+    let times: Vec<f32> = (0..=n).map(|k| k as f32 * dt).collect();
+    let position = |k: usize| FLIGHT[k % n].0;
+    let mut path = Vec::new();
+    for k in 0..=n {
+        let tangent = (position(k + 1) - position(k + n - 1)) / (2.0 * dt);
+        path.extend([tangent.extend(0.0), position(k).extend(0.0), tangent.extend(0.0)]);
+    }
+    let cam = scene.camera;
+    let rest = Trs::looking(cam.position, cam.target - cam.position, cam.up);
+    let turns = (0..=n)
+        .map(|k| {
+            let (p, target) = FLIGHT[k % n];
+            // Key 0 is the rest camera itself, so that t = 0 shows the static scene.
+            if k % n == 0 { rest.rotation } else { look_rotation(target - p, Vec3::Y) }
+        })
+        .map(glam::Vec4::from)
+        .collect();
+    let node = super::motion::add_root(scene, "camera-flight", "camera", rest);
+    super::motion::keys(
+        scene,
+        node,
+        Property::Translation,
+        Sampler::new(Interpolation::CubicSpline, times.clone(), path),
+    );
+    super::motion::keys(scene, node, Property::Rotation, Sampler::new(Interpolation::Linear, times, turns));
+    if let Some(anim) = scene.animation.as_mut() {
+        anim.bindings.camera = Some(node);
+    }
+}
+
+fn courtyard(params: &ParamValues) -> Scene {
     // The spec bounds detail to 1..=5; clamping keeps a direct caller from indexing out of range.
     let detail = &DETAILS[(params.int("detail").clamp(1, 5) - 1) as usize];
     let cloth = |name: &str, albedo: Vec3| Material { double_sided: true, ..Material::diffuse(name, albedo) };
@@ -214,6 +293,7 @@ pub fn build(params: &ParamValues) -> Scene {
             zfar: 200.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }
 

@@ -130,6 +130,7 @@ pub fn build(params: &ParamValues) -> Scene {
             zfar: 30.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }
 

@@ -12,13 +12,26 @@
 //! spectra. The light quad sits 0.1 mm below the ceiling (the data puts it in the ceiling plane) so it never
 //! shares a depth with the ceiling in a rasteriser.
 
-use glam::Vec3;
+use glam::{Quat, Vec3, Vec4};
 
+use super::motion;
 use super::shapes::MeshBuilder;
 use crate::params::{ParamSpec, ParamValues};
+use crate::scene::animation::{Interpolation, Property, Sampler, Trs};
 use crate::scene::{Camera, Environment, Light, Material, Mesh, Scene};
 
-pub const PARAMS: &[ParamSpec] = &[];
+pub const PARAMS: &[ParamSpec] = &[motion::animate_param(
+    &["none", "box"],
+    "box: a 12 cm box flies a loop above the blocks, turning once (4 s, LINEAR)",
+)];
+pub const SPOT_PARAMS: &[ParamSpec] = &[motion::animate_param(
+    &["none", "box", "spot"],
+    "box: a 12 cm box flies a loop above the blocks, turning once (4 s, LINEAR); spot: the spot light \
+     sweeps ±25° from side to side (about the view axis, 4 s)",
+)];
+
+/// Duration of the animated variants' loops, seconds.
+pub const LOOP_SECONDS: f32 = 4.0;
 
 /// Emitted radiance of the ceiling light (Mitsuba/PBRT value).
 pub const LIGHT_RADIANCE: Vec3 = Vec3::new(17.0, 12.0, 4.0);
@@ -46,12 +59,58 @@ enum Lighting {
     Spot,
 }
 
-pub fn build(_: &ParamValues) -> Scene {
-    cornell_box("cornell", Lighting::AreaLight)
+pub fn build(params: &ParamValues) -> Scene {
+    animate(cornell_box("cornell", Lighting::AreaLight), params.choice("animate"))
 }
 
-pub fn build_spot(_: &ParamValues) -> Scene {
-    cornell_box("cornell-spot", Lighting::Spot)
+pub fn build_spot(params: &ParamValues) -> Scene {
+    animate(cornell_box("cornell-spot", Lighting::Spot), params.choice("animate"))
+}
+
+fn animate(mut scene: Scene, motion: &str) -> Scene {
+    let times: Vec<f32> = (0..5).map(|k| k as f32 * LOOP_SECONDS / 4.0).collect();
+    match motion {
+        "box" => moving_box(&mut scene, &times),
+        "spot" => {
+            motion::sweep_light(&mut scene, "spot-sweep", 0, Vec3::Z, &times, &[0.0, 25.0, 0.0, -25.0, 0.0]);
+        }
+        _ => {}
+    }
+    scene
+}
+
+/// The loop of `cornell:animate=box`: corners of a square at 0.42 m, above both blocks (the tall one
+/// is 0.33 m high) and below the light, so the box never touches anything.
+pub const BOX_LOOP: [Vec3; 4] = [
+    Vec3::new(0.15, 0.42, 0.15),
+    Vec3::new(0.40, 0.42, 0.15),
+    Vec3::new(0.40, 0.42, 0.40),
+    Vec3::new(0.15, 0.42, 0.40),
+];
+pub const BOX_HALF: f32 = 0.06;
+
+fn moving_box(scene: &mut Scene, times: &[f32]) {
+    let centre = BOX_LOOP[0];
+    let mut b = MeshBuilder::new();
+    b.aabb(centre - Vec3::splat(BOX_HALF), centre + Vec3::splat(BOX_HALF), 1.0);
+    scene.materials.push(Material::diffuse("box", Vec3::new(0.75, 0.6, 0.2)));
+    scene.meshes.push(b.build("moving-box", scene.materials.len() as u32 - 1));
+    let node =
+        motion::add_root(scene, "box-loop", "moving-box", Trs { translation: centre, ..Default::default() });
+    let path = BOX_LOOP.iter().chain([&centre]).map(|p| p.extend(0.0)).collect::<Vec<Vec4>>();
+    motion::keys(
+        scene,
+        node,
+        Property::Translation,
+        Sampler::new(Interpolation::Linear, times.to_vec(), path),
+    );
+    motion::keys(
+        scene,
+        node,
+        Property::Rotation,
+        motion::turns(Quat::IDENTITY, Vec3::Y, times, &[0.0, 90.0, 180.0, 270.0, 360.0]),
+    );
+    motion::bind_mesh(scene, scene.meshes.len() - 1, node);
 }
 
 /// The spot light of `cornell-spot`.
@@ -167,6 +226,7 @@ fn cornell_box(name: &str, lighting: Lighting) -> Scene {
         environment: Environment::None,
         camera: camera(),
         warnings: Vec::new(),
+        animation: None,
     }
 }
 

@@ -102,5 +102,6 @@ pub fn build(params: &ParamValues) -> Scene {
             zfar: 10.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }

@@ -7,6 +7,7 @@ mod atrium;
 mod bumpy_glossy;
 mod cornell;
 mod furnace;
+mod motion;
 pub mod shapes;
 mod spheres_env;
 #[cfg(test)]
@@ -35,7 +36,7 @@ static SCENES: [BuiltinScene; 7] = [
     BuiltinScene {
         name: "cornell-spot",
         description: "the Cornell box lit by one spot light near the ceiling instead of the area light",
-        params: cornell::PARAMS,
+        params: cornell::SPOT_PARAMS,
         build: cornell::build_spot,
     },
     BuiltinScene {

@@ -100,5 +100,6 @@ pub fn build(params: &ParamValues) -> Scene {
             zfar: 100.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }

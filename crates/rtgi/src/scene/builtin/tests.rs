@@ -619,3 +619,133 @@ fn subdivide_hits_every_break() {
     assert!(xs.contains(&-1.0) && xs.contains(&1.0));
     assert!(xs.windows(2).all(|w| w[1] > w[0] && w[1] - w[0] <= 0.7 + 1e-6));
 }
+
+/// The `animate=` variants: what moves, for how long, that t = 0 is the static scene, and that the
+/// motion stays where the scene says it does.
+#[test]
+fn animated_variants_move_what_they_say() {
+    use crate::scene::animation::Interpolation;
+    let variants: [(&str, &str, f32); 6] = [
+        ("cornell", "box", 4.0),
+        ("cornell-spot", "box", 4.0),
+        ("cornell-spot", "spot", 4.0),
+        ("two-rooms", "spot", 6.0),
+        ("atrium", "camera", 10.0),
+        ("atrium", "sun", 8.0),
+    ];
+    for (name, motion, duration) in variants {
+        let label = format!("{name}:animate={motion}");
+        let still = scene(name, &[]);
+        let s = scene(name, &[("animate", motion)]);
+        assert!(still.animation.is_none() && !still.is_animated(), "{label}");
+        assert!(s.is_animated(), "{label}");
+        assert_eq!(s.animation_duration(), duration, "{label}");
+        // t = 0 and the end of the loop are the rest pose.
+        for t in [0.0, duration] {
+            let p = s.pose_at(t);
+            assert!(p.camera.position.distance(s.camera.position) < 1e-4, "{label} t={t}");
+            for (a, b) in p.lights.iter().zip(&s.lights) {
+                assert!(
+                    crate::scene::gltf_export::scene_differences(
+                        &Scene { lights: vec![*a], ..Default::default() },
+                        &Scene { lights: vec![*b], ..Default::default() }
+                    )
+                    .is_empty(),
+                    "{label} t={t}: {a:?} vs {b:?}"
+                );
+            }
+        }
+        let mid = s.pose_at(duration * 0.3);
+        let moved_meshes = s.moving_meshes().iter().filter(|m| **m).count();
+        match motion {
+            "box" => {
+                assert_eq!(moved_meshes, 1, "{label}");
+                assert_eq!(s.meshes.len(), still.meshes.len() + 1);
+                // The box's loop keeps it clear of the blocks (≤ 0.33 m) and below the light.
+                for k in 0..=40 {
+                    let posed = s.posed(duration * k as f32 / 40.0);
+                    let (lo, hi) = mesh_bounds(mesh(&posed, "moving-box"));
+                    assert!(
+                        lo.y > 0.34 && hi.y < 0.54 && lo.x > 0.0 && hi.x < 0.55 && lo.z > 0.0 && hi.z < 0.559
+                    );
+                }
+            }
+            "spot" | "sun" => {
+                assert_eq!(moved_meshes, 0, "{label}");
+                let (Light::Spot { direction: d, .. } | Light::Directional { direction: d, .. }) =
+                    mid.lights[0]
+                else {
+                    panic!("{label}")
+                };
+                let (Light::Spot { direction: rest, .. } | Light::Directional { direction: rest, .. }) =
+                    s.lights[0]
+                else {
+                    panic!("{label}")
+                };
+                assert!((d.length() - 1.0).abs() < 1e-5 && d.dot(rest) < 0.99, "{label}: {d} vs {rest}");
+                // Turning about the vertical keeps the elevation (cornell-spot's swings sideways).
+                assert!(name == "cornell-spot" || (d.y - rest.y).abs() < 1e-5, "{label}");
+                if name == "two-rooms" {
+                    // The swept cone never reaches the doorway (x = 0, |z| ≤ 0.45, y ≤ 2).
+                    for k in 0..=60 {
+                        let Light::Spot { position, direction, outer_angle, .. } =
+                            s.pose_at(duration * k as f32 / 60.0).lights[0]
+                        else {
+                            panic!()
+                        };
+                        for (z, y) in [(-0.45, 0.0), (-0.45, 2.0), (0.45, 0.0), (0.45, 2.0), (0.0, 1.0)] {
+                            let to_door = (Vec3::new(0.0, y, z) - position).normalize();
+                            assert!(
+                                to_door.dot(direction) < outer_angle.cos(),
+                                "{label}: lights the doorway"
+                            );
+                        }
+                    }
+                }
+                if motion == "sun" {
+                    assert!(
+                        mid.environment_sun.unwrap().distance(-d) < 1e-5,
+                        "{label}: the sky's sun follows"
+                    );
+                }
+            }
+            "camera" => {
+                assert_eq!(moved_meshes, 0, "{label}");
+                let anim = s.animation.as_ref().unwrap();
+                assert!(
+                    anim.clips[0]
+                        .channels
+                        .iter()
+                        .any(|c| c.sampler.interpolation == Interpolation::CubicSpline)
+                );
+                // Inside the court, clear of the arcades (centre lines at |x| = 15, |z| = 6, 0.3 m half
+                // thickness), above the floor and below the upper arches.
+                for k in 0..=200 {
+                    let cam = s.pose_at(duration * k as f32 / 200.0).camera;
+                    let p = cam.position;
+                    assert!(p.x.abs() < 14.0 && p.z.abs() < 5.0 && p.y > 1.0 && p.y < 8.0, "{label}: {p}");
+                    assert!((cam.up.length() - 1.0).abs() < 1e-5 && cam.target.distance(p) > 0.5);
+                }
+                assert!(mid.camera.position.distance(s.camera.position) > 1.0);
+            }
+            _ => unreachable!(),
+        }
+    }
+}
+
+#[test]
+fn animate_rejects_unknown_motions() {
+    for (name, bad) in [("cornell", "spot"), ("atrium", "box"), ("two-rooms", "camera")] {
+        let settings = vec![("animate".to_string(), bad.to_string())];
+        let err = build(name, &settings)
+            .err()
+            .unwrap_or_else(|| panic!("{name}:animate={bad} accepted"))
+            .to_string();
+        assert!(err.contains("animate") && err.contains(bad) && err.contains("none"), "{err}");
+    }
+    // Default and explicit `none` are today's static scenes.
+    for name in ["cornell", "cornell-spot", "two-rooms", "atrium"] {
+        let none = vec![("animate".to_string(), "none".to_string())];
+        assert_eq!(format!("{:?}", scene(name, &[])), format!("{:?}", build(name, &none).unwrap()));
+    }
+}

@@ -12,12 +12,18 @@ use super::shapes::MeshBuilder;
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::scene::{Camera, Environment, Light, Material, Scene};
 
-pub const PARAMS: &[ParamSpec] = &[ParamSpec {
-    name: "door_width",
-    kind: ParamKind::Float { min: 0.3, max: 2.0 },
-    default: "0.9",
-    doc: "width of the doorway in metres (it is 2 m high)",
-}];
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "door_width",
+        kind: ParamKind::Float { min: 0.3, max: 2.0 },
+        default: "0.9",
+        doc: "width of the doorway in metres (it is 2 m high)",
+    },
+    super::motion::animate_param(
+        &["none", "spot"],
+        "spot: the spot light sweeps ±30° about the vertical (6 s), its cone never reaching the doorway",
+    ),
+];
 
 /// Thickness of the wall between the rooms, metres.
 pub const WALL_THICKNESS: f32 = 0.05;
@@ -38,6 +44,21 @@ pub fn room_x_ranges() -> [(f32, f32); 2] {
 }
 
 pub fn build(params: &ParamValues) -> Scene {
+    let mut scene = rooms(params);
+    if params.choice("animate") == "spot" {
+        super::motion::sweep_light(
+            &mut scene,
+            "spot-sweep",
+            0,
+            Vec3::Y,
+            &[0.0, 1.5, 3.0, 4.5, 6.0],
+            &[0.0, 30.0, 0.0, -30.0, 0.0],
+        );
+    }
+    scene
+}
+
+fn rooms(params: &ParamValues) -> Scene {
     let door_half = params.float("door_width") as f32 * 0.5;
     let t = WALL_THICKNESS * 0.5;
     let [(x0, _), (_, x1)] = room_x_ranges();
@@ -95,6 +116,7 @@ pub fn build(params: &ParamValues) -> Scene {
             zfar: 20.0,
         },
         warnings: Vec::new(),
+        animation: None,
     }
 }
 

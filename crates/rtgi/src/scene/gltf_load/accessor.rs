@@ -276,6 +276,22 @@ impl<'a> Loader<'a> {
         Ok(self.floats(index, 4, what)?.chunks_exact(4).map(Vec4::from_slice).collect())
     }
 
+    /// Reads animation key times, which the spec requires to be float scalars.
+    pub(super) fn read_times(&self, index: usize, what: &str) -> Result<Vec<f32>, String> {
+        if let Some(acc) = self.root.accessors.get(index) {
+            let is_float = matches!(
+                acc.component_type,
+                Checked::Valid(json::accessor::GenericComponentType(ComponentType::F32))
+            );
+            if !is_float || acc.type_ != Checked::Valid(Type::Scalar) {
+                return Err(format!(
+                    "accessor {index} ({what}) must hold float scalars (key times in seconds)"
+                ));
+            }
+        }
+        self.floats(index, 1, what)
+    }
+
     /// Reads triangle indices (unsigned scalar integers).
     pub(super) fn read_indices(&self, index: usize, what: &str) -> Result<Vec<u32>, String> {
         // Check the type first: a float index accessor would otherwise be reported as a size problem.
