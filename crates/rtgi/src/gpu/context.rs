@@ -15,6 +15,9 @@ pub enum GpuError {
     /// The scene or a resource is larger than the device allows; the message names the limit.
     #[error("{0}")]
     OverLimit(String),
+    /// A technique needs an optional capability the device lacks ([`crate::gpu::features::require`]).
+    #[error("{who} needs {missing}, which the device on '{adapter}' does not offer")]
+    MissingFeature { who: String, missing: String, adapter: String },
     #[error("GPU error: {0}")]
     Other(String),
 }
@@ -98,13 +101,11 @@ impl GpuContext {
         };
 
         let available = adapter.features();
+        // Every optional feature techniques may declare (`features::Need`) is requested where offered;
+        // none is required, so `features::require` reports what a technique misses instead.
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
-            | wgpu::Features::FLOAT32_FILTERABLE
-            // Additive blending into rgba32float (splatting techniques).
-            | wgpu::Features::FLOAT32_BLENDABLE
-            // Read-write storage access to rgba32float, for in-place accumulation of radiance.
-            | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+            | super::features::optional_features();
         let features = available & wanted;
         let has_timestamps = features
             .contains(wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
