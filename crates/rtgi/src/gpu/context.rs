@@ -22,6 +22,18 @@ pub enum GpuError {
     Other(String),
 }
 
+impl GpuError {
+    /// `what` needs `bytes`, more than the device's limit `name` of `limit` bytes.
+    pub(crate) fn buffer_over_limit(what: &str, bytes: u64, name: &str, limit: u64) -> GpuError {
+        let mib = |b: u64| b as f64 / 1_048_576.0;
+        GpuError::OverLimit(format!(
+            "{what} needs {:.1} MiB, over the device's {name} of {:.1} MiB",
+            mib(bytes),
+            mib(limit)
+        ))
+    }
+}
+
 /// What rtgi reports about the adapter it runs on.
 #[derive(Clone, Debug, Serialize)]
 pub struct AdapterSummary {
@@ -154,11 +166,7 @@ impl GpuContext {
     pub fn check_storage_size(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
         let limit = self.limits().max_storage_buffer_binding_size;
         if bytes > limit {
-            return Err(GpuError::OverLimit(format!(
-                "{what} needs {:.1} MiB, over the device's max_storage_buffer_binding_size of {:.1} MiB",
-                bytes as f64 / 1048576.0,
-                limit as f64 / 1048576.0
-            )));
+            return Err(GpuError::buffer_over_limit(what, bytes, "max_storage_buffer_binding_size", limit));
         }
         Ok(())
     }

@@ -321,12 +321,7 @@ impl<'a> BufferBuilder<'a> {
             checks.push(("max_uniform_buffer_binding_size", limits.max_uniform_buffer_binding_size));
         }
         match checks.into_iter().find(|(_, limit)| size > *limit) {
-            Some((name, limit)) => Err(GpuError::OverLimit(format!(
-                "{} needs {}, over the device's {name} of {}",
-                self.label,
-                mib(size),
-                mib(limit)
-            ))),
+            Some((name, limit)) => Err(GpuError::buffer_over_limit(self.label, size, name, limit)),
             None => Ok(()),
         }
     }
@@ -349,10 +344,6 @@ impl<'a> BufferBuilder<'a> {
         }
         Ok(buffer)
     }
-}
-
-fn mib(bytes: u64) -> String {
-    format!("{:.1} MiB", bytes as f64 / 1_048_576.0)
 }
 
 #[cfg(test)]
