@@ -54,13 +54,20 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
-    /// Compare a test image with a reference: RMSE, relative MSE and mean FLIP.
+    /// Compare a test image with a reference: RMSE, relative MSE and mean FLIP. With two sequence
+    /// patterns ('ref_%04d.exr' 'test_%04d.exr') frame by frame, plus each side's temporal stability.
     Compare {
-        /// Reference image (.exr, .hdr or .png).
+        /// Reference image (.exr, .hdr or .png) or sequence pattern with %0Nd; with --temporal, the one
+        /// sequence to measure.
         reference: PathBuf,
-        /// Test image of the same size.
-        test: PathBuf,
-        /// Print one JSON object {"rmse", "rel_mse", "flip"} instead of text.
+        /// Test image of the same size, or a sequence pattern when REFERENCE is one.
+        test: Option<PathBuf>,
+        /// Measure one sequence's temporal stability: mean FLIP and relative MSE between consecutive
+        /// frames.
+        #[arg(long)]
+        temporal: bool,
+        /// Print one JSON object instead of text: {"rmse", "rel_mse", "flip"} for images,
+        /// {"frames", "mean", "temporal"} for sequences, {"pairs", "flip", "rel_mse"} for --temporal.
         #[arg(long)]
         json: bool,
         /// Also write the FLIP error map as a PNG (magma colours).
@@ -146,13 +153,102 @@ fn parse_region(text: &str) -> anyhow::Result<[u32; 4]> {
     }
 }
 
-fn compare(
+/// The `compare` options that apply to single images only.
+#[derive(Clone, Copy)]
+struct ImageOptions<'a> {
+    error_map: Option<&'a Path>,
+    region: Option<&'a str>,
+}
+
+/// Dispatches `compare` on its arguments: two images, two sequences, or one sequence with --temporal.
+fn compare_command(
     reference: &Path,
-    test: &Path,
+    test: Option<&Path>,
+    temporal: bool,
     json: bool,
-    error_map: Option<&Path>,
-    region: Option<&str>,
+    images: &ImageOptions,
 ) -> anyhow::Result<()> {
+    use rtgi::metrics::sequence::{FramePattern, Sequence};
+    let sequence_only = |what: &str| {
+        for (given, flag) in
+            [(images.error_map.is_some(), "--error-map"), (images.region.is_some(), "--region")]
+        {
+            if given {
+                bail!("{flag} applies to single images, not to {what}");
+            }
+        }
+        Ok(())
+    };
+    let r_pattern = FramePattern::parse(reference)?;
+    match (test, temporal) {
+        (Some(_), true) => bail!(
+            "--temporal measures one sequence (rtgi compare --temporal 'a_%04d.exr'); comparing two \
+             sequences reports the temporal stability of both"
+        ),
+        (None, true) => {
+            sequence_only("--temporal")?;
+            let pattern = r_pattern.with_context(|| {
+                format!("--temporal needs a sequence pattern with %0Nd, got '{}'", reference.display())
+            })?;
+            let s = rtgi::metrics::sequence::sequence_temporal_stability(&Sequence::discover(pattern)?)?;
+            if json {
+                println!("{}", serde_json::to_value(s)?);
+            } else {
+                println!(
+                    "temporal ({} consecutive pairs)  rel_mse {:.6}  flip {:.6}",
+                    s.pairs, s.rel_mse, s.flip
+                );
+            }
+            Ok(())
+        }
+        (None, false) => bail!("compare needs a TEST image after the reference (or --temporal PATTERN)"),
+        (Some(test), false) => match (r_pattern, FramePattern::parse(test)?) {
+            (None, None) => compare(reference, test, json, images),
+            (Some(r), Some(t)) => {
+                sequence_only("sequences")?;
+                compare_sequences(&Sequence::discover(r)?, &Sequence::discover(t)?, json)
+            }
+            _ => bail!(
+                "'{}' and '{}': either both are sequence patterns (%0Nd) or neither is",
+                reference.display(),
+                test.display()
+            ),
+        },
+    }
+}
+
+fn compare_sequences(
+    reference: &rtgi::metrics::sequence::Sequence,
+    test: &rtgi::metrics::sequence::Sequence,
+    json: bool,
+) -> anyhow::Result<()> {
+    let c = rtgi::metrics::sequence::compare_sequences(reference, test)?;
+    if json {
+        println!("{}", serde_json::to_value(&c)?);
+        return Ok(());
+    }
+    for f in &c.frames {
+        println!("frame {:>6}  rmse {:.6}  rel_mse {:.6}  flip {:.6}", f.index, f.rmse, f.rel_mse, f.flip);
+    }
+    let m = c.mean;
+    println!(
+        "mean ({} frames)  rmse {:.6}  rel_mse {:.6}  flip {:.6}",
+        c.frames.len(),
+        m.rmse,
+        m.rel_mse,
+        m.flip
+    );
+    for (side, t) in [("reference", c.temporal.reference), ("test", c.temporal.test)] {
+        match t {
+            Some(t) => println!("temporal {side:<9}  rel_mse {:.6}  flip {:.6}", t.rel_mse, t.flip),
+            None => println!("temporal {side:<9}  (one frame)"),
+        }
+    }
+    Ok(())
+}
+
+fn compare(reference: &Path, test: &Path, json: bool, images: &ImageOptions) -> anyhow::Result<()> {
+    let ImageOptions { error_map, region } = *images;
     let region = region.map(parse_region).transpose()?;
     if let Some(path) = error_map {
         rtgi::image::FileFormat::for_writing(path).context("--error-map")?;
@@ -234,8 +330,9 @@ fn main() -> ExitCode {
             reference(&scene, &size, spp, &set, out.as_deref())
         }
         Command::Tonemap { input, output, exposure } => tonemap(&input, &output, exposure),
-        Command::Compare { reference, test, json, error_map, region } => {
-            compare(&reference, &test, json, error_map.as_deref(), region.as_deref())
+        Command::Compare { reference, test, temporal, json, error_map, region } => {
+            let images = ImageOptions { error_map: error_map.as_deref(), region: region.as_deref() };
+            compare_command(&reference, test.as_deref(), temporal, json, &images)
         }
     };
     match result {

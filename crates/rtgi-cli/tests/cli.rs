@@ -307,3 +307,81 @@ fn tonemap_writes_a_png_and_refuses_other_outputs() {
     let err = expect_error(&rtgi_in(dir.path(), &["tonemap", "missing.exr", "out.png"]));
     assert!(err.contains("missing.exr"), "{err}");
 }
+
+#[test]
+fn compare_refuses_images_with_nan_and_counts_them() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    write_exr(dir.path(), "r.exr", 2, 1, vec![0.5; 6]);
+    write_exr(dir.path(), "t.exr", 2, 1, vec![0.5, f32::NAN, 0.5, f32::INFINITY, 0.5, 0.5]);
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "r.exr", "t.exr", "--json"]));
+    assert!(line.contains("t.exr") && line.contains("holds 2 non-finite pixel(s)"), "{line}");
+}
+
+/// A 16×16 frame: a ramp plus deterministic noise of `noise` amplitude (seeded per frame).
+fn sequence_frame(noise: f32, seed: u32) -> Vec<f32> {
+    (0..16 * 16 * 3u32)
+        .map(|i| {
+            let n =
+                ((i ^ seed.wrapping_mul(0x9e37_79b9)).wrapping_mul(2_654_435_761) >> 8) as f32 / 16_777_216.0;
+            0.2 + 0.5 * (i % 16) as f32 / 16.0 + noise * (n - 0.5)
+        })
+        .collect()
+}
+
+#[test]
+fn compare_sequences_frame_by_frame_with_temporal_stability() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for i in 1..=3u32 {
+        write_exr(dir.path(), &format!("ref_{i:04}.exr"), 16, 16, sequence_frame(0.0, 0));
+        write_exr(dir.path(), &format!("test_{i:04}.exr"), 16, 16, sequence_frame(0.2, i));
+    }
+    let out = rtgi_in(dir.path(), &["compare", "ref_%04d.exr", "test_%04d.exr", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).expect("one JSON object");
+    let frames = v["frames"].as_array().expect("frames");
+    assert_eq!(frames.iter().map(|f| f["index"].as_u64().unwrap_or(99)).collect::<Vec<_>>(), vec![1, 2, 3]);
+    for key in ["flip", "rel_mse", "rmse"] {
+        let mean = frames.iter().map(|f| f[key].as_f64().expect(key)).sum::<f64>() / 3.0;
+        assert!((v["mean"][key].as_f64().expect(key) - mean).abs() < 1e-12, "{key}: {v}");
+        assert!(mean > 0.0, "{key}: {v}");
+    }
+    assert_eq!(v["temporal"]["reference"]["flip"].as_f64(), Some(0.0), "{v}");
+    assert!(v["temporal"]["test"]["flip"].as_f64().is_some_and(|f| f > 0.0), "{v}");
+
+    let text = stdout(&rtgi_in(dir.path(), &["compare", "ref_%04d.exr", "test_%04d.exr"]));
+    assert!(text.contains("frame      3") && text.contains("mean (3 frames)"), "{text}");
+    assert!(text.contains("temporal reference") && text.contains("temporal test"), "{text}");
+
+    let out = rtgi_in(dir.path(), &["compare", "--temporal", "test_%04d.exr", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let t: serde_json::Value = serde_json::from_str(stdout(&out).trim()).expect("one JSON object");
+    assert_eq!(t["pairs"].as_u64(), Some(2), "{t}");
+    assert_eq!(t["flip"], v["temporal"]["test"]["flip"], "{t} vs {v}");
+}
+
+#[test]
+fn compare_sequences_name_missing_frames() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for i in [0u32, 1, 3] {
+        write_exr(dir.path(), &format!("gap_{i:02}.exr"), 16, 16, sequence_frame(0.0, 0));
+    }
+    for i in 0..2u32 {
+        write_exr(dir.path(), &format!("a_{i:02}.exr"), 16, 16, sequence_frame(0.0, 0));
+    }
+    for i in 0..3u32 {
+        write_exr(dir.path(), &format!("b_{i:02}.exr"), 16, 16, sequence_frame(0.0, 0));
+    }
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "--temporal", "gap_%02d.exr"]));
+    assert!(line.contains("gap_02.exr: missing"), "{line}");
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "b_%02d.exr", "a_%02d.exr"]));
+    assert!(line.contains("a_02.exr: missing"), "{line}");
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "b_%02d.exr", "none_%02d.exr"]));
+    assert!(line.contains("no file matches") && line.contains("none_%02d.exr"), "{line}");
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "b_%02d.exr", "a_00.exr"]));
+    assert!(line.contains("both are sequence patterns"), "{line}");
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "--temporal", "a_00.exr"]));
+    assert!(line.contains("--temporal needs a sequence pattern"), "{line}");
+    let line =
+        expect_error(&rtgi_in(dir.path(), &["compare", "a_%02d.exr", "b_%02d.exr", "--region", "0,0,1,1"]));
+    assert!(line.contains("--region"), "{line}");
+}

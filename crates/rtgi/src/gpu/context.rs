@@ -15,8 +15,23 @@ pub enum GpuError {
     /// The scene or a resource is larger than the device allows; the message names the limit.
     #[error("{0}")]
     OverLimit(String),
+    /// A technique needs an optional capability the device lacks ([`crate::gpu::features::require`]).
+    #[error("{who} needs {missing}, which the device on '{adapter}' does not offer")]
+    MissingFeature { who: String, missing: String, adapter: String },
     #[error("GPU error: {0}")]
     Other(String),
+}
+
+impl GpuError {
+    /// `what` needs `bytes`, more than the device's limit `name` of `limit` bytes.
+    pub(crate) fn buffer_over_limit(what: &str, bytes: u64, name: &str, limit: u64) -> GpuError {
+        let mib = |b: u64| b as f64 / 1_048_576.0;
+        GpuError::OverLimit(format!(
+            "{what} needs {:.1} MiB, over the device's {name} of {:.1} MiB",
+            mib(bytes),
+            mib(limit)
+        ))
+    }
 }
 
 /// What rtgi reports about the adapter it runs on.
@@ -123,13 +138,11 @@ impl GpuContext {
         };
 
         let available = adapter.features();
+        // Every optional feature techniques may declare (`features::Need`) is requested where offered;
+        // none is required, so `features::require` reports what a technique misses instead.
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
-            | wgpu::Features::FLOAT32_FILTERABLE
-            // Additive blending into rgba32float (splatting techniques).
-            | wgpu::Features::FLOAT32_BLENDABLE
-            // Read-write storage access to rgba32float, for in-place accumulation of radiance.
-            | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+            | super::features::optional_features();
         let features = available & wanted;
         let has_timestamps = features
             .contains(wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
@@ -209,11 +222,7 @@ impl GpuContext {
     pub fn check_storage_size(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
         let limit = self.limits().max_storage_buffer_binding_size;
         if bytes > limit {
-            return Err(GpuError::OverLimit(format!(
-                "{what} needs {:.1} MiB, over the device's max_storage_buffer_binding_size of {:.1} MiB",
-                bytes as f64 / 1048576.0,
-                limit as f64 / 1048576.0
-            )));
+            return Err(GpuError::buffer_over_limit(what, bytes, "max_storage_buffer_binding_size", limit));
         }
         Ok(())
     }

@@ -2,12 +2,19 @@
 
 pub mod bvh;
 pub mod context;
+pub mod dispatch;
+pub mod features;
 pub mod kernel;
+pub mod mips;
 pub mod profiler;
 pub mod readback;
+pub mod resources;
 pub mod scene;
 
 pub use bvh::{Bvh, GpuBvh};
 pub use context::{AdapterSummary, GpuContext, GpuError, GpuOptions, MemoryReport};
+pub use features::{Need, require};
+pub use mips::MipGenerator;
 pub use profiler::{PassTiming, Profiler, TimeSummary, TimingMode};
+pub use resources::{BufferBuilder, TextureBuilder};
 pub use scene::GpuScene;

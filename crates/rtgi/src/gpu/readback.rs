@@ -45,31 +45,63 @@ pub fn read_texture(
     texture: &wgpu::Texture,
     bytes_per_pixel: u32,
 ) -> Result<Vec<u8>, GpuError> {
-    let (w, h) = (texture.width(), texture.height());
-    let unpadded = w * bytes_per_pixel;
+    let size = wgpu::Extent3d { width: texture.width(), height: texture.height(), depth_or_array_layers: 1 };
+    read_region(ctx, texture, 0, size, bytes_per_pixel)
+}
+
+/// Reads mip `level` of a 2-D, 2-D array or 3-D texture: every layer (or depth slice) in order, rows
+/// tightly packed, texels of the format's copy size (colour formats only).
+pub fn read_texture_level(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+    level: u32,
+) -> Result<Vec<u8>, GpuError> {
+    let size = texture.size().mip_level_size(level, texture.dimension());
+    let texel = texture.format().block_copy_size(None).ok_or_else(|| {
+        GpuError::Other(format!("reading back {:?}: no single copy size", texture.format()))
+    })?;
+    read_region(ctx, texture, level, size, texel)
+}
+
+/// Copies `size` texels of `level` from the origin through a staging buffer whose rows are padded to
+/// `COPY_BYTES_PER_ROW_ALIGNMENT`, and returns them unpadded.
+fn read_region(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+    level: u32,
+    size: wgpu::Extent3d,
+    texel_bytes: u32,
+) -> Result<Vec<u8>, GpuError> {
+    let unpadded = size.width * texel_bytes;
     let padded = unpadded.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let rows = size.height * size.depth_or_array_layers;
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("texture readback"),
-        size: u64::from(padded) * u64::from(h),
+        size: u64::from(padded) * u64::from(rows),
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: level,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
         wgpu::TexelCopyBufferInfo {
             buffer: &staging,
             layout: wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(padded),
-                rows_per_image: Some(h),
+                rows_per_image: Some(size.height),
             },
         },
-        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        size,
     );
     ctx.queue.submit([encoder.finish()]);
     let data = map_and_copy(ctx, &staging)?;
-    let mut out = Vec::with_capacity((unpadded * h) as usize);
+    let mut out = Vec::with_capacity((unpadded * rows) as usize);
     for row in data.chunks_exact(padded as usize) {
         out.extend_from_slice(&row[..unpadded as usize]);
     }

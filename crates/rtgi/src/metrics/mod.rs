@@ -4,6 +4,13 @@
 //! `nv-flip` crate) works on what a person sees: both images go through the one documented PNG tone map
 //! ([`crate::image`], exposure 0: ACES filmic fit, sRGB, 8 bits) before comparison, at the reference
 //! FLIP default of 67 pixels per degree (a 0.7 m wide, 3840-pixel monitor seen from 0.7 m).
+//!
+//! Images holding NaN or ±∞ are refused ([`MetricsError::NonFinite`]): a mean over them is NaN (or ∞)
+//! and hides how many pixels are broken, while the count is what a person debugging a technique needs.
+//!
+//! [`sequence`] compares image sequences frame by frame and measures temporal stability.
+
+pub mod sequence;
 
 use serde::Serialize;
 
@@ -20,6 +27,39 @@ pub enum MetricsError {
     Empty,
     #[error("region {w}x{h} at ({x}, {y}) is empty or leaves the {width}x{height} image")]
     Region { x: u32, y: u32, w: u32, h: u32, width: u32, height: u32 },
+    /// `image` names the image ("reference", "test" or a file).
+    #[error(
+        "{image} holds {count} non-finite pixel(s) (NaN or ±inf) of {total}, the first at ({x}, {y}); \
+         the metrics are undefined on them"
+    )]
+    NonFinite { image: String, count: usize, total: usize, x: u32, y: u32 },
+}
+
+/// Pixels of `image` with a NaN or infinite channel: their count and the first (x, y), rows from the top.
+pub fn non_finite_pixels(image: &HdrImage) -> (usize, Option<(u32, u32)>) {
+    let mut count = 0;
+    let mut first = None;
+    for (i, px) in image.rgb.chunks_exact(3).enumerate() {
+        if px.iter().any(|v| !v.is_finite()) {
+            count += 1;
+            if first.is_none() && image.width > 0 {
+                let i = i as u32;
+                first = Some((i % image.width, i / image.width));
+            }
+        }
+    }
+    (count, first)
+}
+
+/// Fails with [`MetricsError::NonFinite`], naming the image `name`, if any pixel is NaN or infinite.
+pub fn check_finite(image: &HdrImage, name: &str) -> Result<(), MetricsError> {
+    match non_finite_pixels(image) {
+        (0, _) => Ok(()),
+        (count, first) => {
+            let (x, y) = first.unwrap_or_default();
+            Err(MetricsError::NonFinite { image: name.into(), count, total: image.rgb.len() / 3, x, y })
+        }
+    }
 }
 
 /// The three error figures of a comparison.
@@ -42,7 +82,8 @@ fn check(reference: &HdrImage, test: &HdrImage) -> Result<(), MetricsError> {
     if reference.rgb.is_empty() {
         return Err(MetricsError::Empty);
     }
-    Ok(())
+    check_finite(reference, "reference")?;
+    check_finite(test, "test")
 }
 
 /// Mean linear radiance (RGB) of the pixels in the rectangle at (x, y) of size w×h.
@@ -163,6 +204,22 @@ mod tests {
             assert!(f > last, "FLIP {f} at noise {amplitude} not above {last}");
             last = f;
         }
+    }
+
+    #[test]
+    fn non_finite_pixels_are_counted_and_refused() {
+        let r = img(3, 2, vec![0.5; 18]);
+        let mut t = r.clone();
+        t.rgb[3 * 4 + 1] = f32::NAN; // pixel (1, 1)
+        t.rgb[3 * 5] = f32::INFINITY; // pixel (2, 1)
+        assert_eq!(non_finite_pixels(&t), (2, Some((1, 1))));
+        let e = compare(&r, &t).unwrap_err().to_string();
+        assert!(
+            e.starts_with("test holds 2 non-finite pixel(s)") && e.contains("of 6, the first at (1, 1)"),
+            "{e}"
+        );
+        let e = rel_mse(&t, &r).unwrap_err().to_string();
+        assert!(e.starts_with("reference holds 2"), "{e}");
     }
 
     #[test]

@@ -25,6 +25,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/light_sampling.wgsl", include_str!("common/light_sampling.wgsl")),
     ("common/sh.wgsl", include_str!("common/sh.wgsl")),
     ("common/raster.wgsl", include_str!("common/raster.wgsl")),
+    ("common/indirect.wgsl", include_str!("common/indirect.wgsl")),
 ];
 
 /// Errors of shader composition (always a bug in rtgi's shaders, but reported, not panicked).

@@ -124,28 +124,13 @@ pub fn storage_texture(
     height: u32,
     format: wgpu::TextureFormat,
 ) -> wgpu::Texture {
-    ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::STORAGE_BINDING
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
+    let texture = crate::gpu::TextureBuilder::d2(label, width, height, format).storage().sampled();
+    ctx.device.create_texture(&texture.usage(wgpu::TextureUsages::COPY_SRC).descriptor())
 }
 
 /// A storage buffer of `size` bytes (zeroed), readable back for tests and counters.
 pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: size.max(16),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
+    ctx.device.create_buffer(&crate::gpu::BufferBuilder::new(label, size).storage().copy().descriptor())
 }
 
 /// The common screen-space pass: one thread per pixel of the frame over the scene (group 0), the frame
@@ -190,13 +175,11 @@ pub fn dispatch(
     bind_groups: &[&wgpu::BindGroup],
     workgroups: [u32; 3],
 ) {
-    let mut pass = encoder
-        .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
-    pass.set_pipeline(pipeline);
-    for (i, g) in bind_groups.iter().enumerate() {
-        pass.set_bind_group(i as u32, *g, &[]);
-    }
-    pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+    crate::gpu::dispatch::compute_pass(encoder, label, pipeline, bind_groups).dispatch_workgroups(
+        workgroups[0],
+        workgroups[1],
+        workgroups[2],
+    );
 }
 
 /// Per-dispatch constants (a sample index, a chunk of work) in one uniform buffer, one aligned slot per
