@@ -9,6 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rtgi::gpu::TimingMode;
 use rtgi::gpu::{GpuContext, GpuOptions};
 use rtgi::image::{FileFormat, ToneMap};
+use rtgi::metrics::sequence::FramePattern;
 use rtgi::params::{parse_setting, parse_size};
 use rtgi::renderer::{Aov, Renderer, RendererSettings};
 
@@ -86,6 +87,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("--exposure '{}' is not a finite number of stops", args.exposure);
     }
     FileFormat::for_writing(&args.out).context("--out")?;
+    let sequence = FramePattern::parse(&args.out).context("--out")?;
     if !args.time.is_finite() {
         bail!("--time '{}' is not a finite number of seconds", args.time);
     }
@@ -137,7 +139,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
     })?;
 
-    let sequence = FramePattern::parse(&args.out);
     let mut renderer = Renderer::new(
         &gpu,
         scene,
@@ -201,7 +202,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 /// Writes each requested AOV; `frame` numbers the files of a sequence.
 fn write_aovs(renderer: &mut Renderer, aovs: &[(Aov, PathBuf)], frame: Option<u32>) -> anyhow::Result<()> {
     for (aov, path) in aovs {
-        let path = match (FramePattern::parse(path), frame) {
+        let path = match (FramePattern::parse(path).context("--aov")?, frame) {
             (Some(pattern), Some(k)) => pattern.path(k),
             _ => path.clone(),
         };
@@ -209,32 +210,6 @@ fn write_aovs(renderer: &mut Renderer, aovs: &[(Aov, PathBuf)], frame: Option<u3
         renderer.read_aov(*aov)?.write(&path, &ToneMap::default())?;
     }
     Ok(())
-}
-
-/// An output path with a printf-style frame number: `prefix%0Nd suffix` or `prefix%dsuffix`.
-struct FramePattern {
-    prefix: String,
-    width: usize,
-    suffix: String,
-}
-
-impl FramePattern {
-    fn parse(path: &std::path::Path) -> Option<FramePattern> {
-        let text = path.to_str()?;
-        let start = text.find('%')?;
-        let rest = &text[start + 1..];
-        let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
-        let after = rest[digits.len()..].strip_prefix('d')?;
-        Some(FramePattern {
-            prefix: text[..start].to_string(),
-            width: digits.parse().unwrap_or(0),
-            suffix: after.to_string(),
-        })
-    }
-
-    fn path(&self, frame: u32) -> PathBuf {
-        PathBuf::from(format!("{}{:0width$}{}", self.prefix, frame, self.suffix, width = self.width))
-    }
 }
 
 /// A bar only where someone watches it: scripts and CI logs get no control characters.

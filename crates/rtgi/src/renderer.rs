@@ -314,6 +314,18 @@ impl Renderer {
         self.sample_index
     }
 
+    /// Frames rendered so far, counting from the renderer's creation or the last
+    /// [`Renderer::set_frame_counter`]: the dimension of the next frame's random numbers.
+    pub fn frame_counter(&self) -> u32 {
+        self.frame_counter
+    }
+
+    /// Starts the next frame's random numbers at frame `n`, so one frame of a sequence can be rendered
+    /// on its own with exactly the samples it had in the sequence.
+    pub fn set_frame_counter(&mut self, n: u32) {
+        self.frame_counter = n;
+    }
+
     /// Setup work done so far.
     pub fn counters(&self) -> RendererCounters {
         RendererCounters {

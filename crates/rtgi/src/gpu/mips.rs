@@ -226,8 +226,8 @@ fn create_pipeline(
         ],
     });
     ctx.checked(&name, || -> Result<_, GpuError> {
-        let module = create_module(ctx, &name, &source, &defines)
-            .map_err(|e| GpuError::Other(e.to_string()))?;
+        let module =
+            create_module(ctx, &name, &source, &defines).map_err(|e| GpuError::Other(e.to_string()))?;
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(&name),
             bind_group_layouts: &[Some(&layout)],
