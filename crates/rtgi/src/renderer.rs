@@ -122,6 +122,11 @@ pub enum Aov {
     Albedo,
     /// Emitted radiance.
     Emission,
+    /// Screen-space motion in pixels (R: x, G: y, B: 0): from the pixel to where its surface point was
+    /// in the previous frame, camera and object motion included.
+    Motion,
+    /// Index of the visible mesh (instance) in R, G and B; −1 where the primary ray left the scene.
+    Instance,
 }
 
 impl std::str::FromStr for Aov {
@@ -132,7 +137,9 @@ impl std::str::FromStr for Aov {
             "normal" => Ok(Aov::Normal),
             "albedo" => Ok(Aov::Albedo),
             "emission" => Ok(Aov::Emission),
-            _ => Err(format!("unknown AOV '{s}'; AOVs: depth, normal, albedo, emission")),
+            "motion" => Ok(Aov::Motion),
+            "instance" => Ok(Aov::Instance),
+            _ => Err(format!("unknown AOV '{s}'; AOVs: depth, normal, albedo, emission, motion, instance")),
         }
     }
 }
@@ -215,6 +222,8 @@ pub struct Renderer {
     sample_index: u32,
     history_valid: bool,
     counters: RendererCounters,
+    /// Per mesh, the transform of the geometry in the previous frame (object motion vectors).
+    previous_mesh_transforms: Option<Vec<Mat4>>,
     shader_compilations_at_start: u64,
     setup_ms: f64,
     frames_wall_ms: f64,
@@ -273,6 +282,7 @@ impl Renderer {
                 technique_builds: 1,
                 ..Default::default()
             },
+            previous_mesh_transforms: None,
             shader_compilations_at_start,
             setup_ms: 0.0,
             frames_wall_ms: 0.0,
@@ -343,6 +353,7 @@ impl Renderer {
     pub fn cut(&mut self) {
         self.history_valid = false;
         self.previous_view_proj = None;
+        self.previous_mesh_transforms = None;
         self.restart_accumulation();
     }
 
@@ -516,7 +527,7 @@ impl Renderer {
 
     /// Uploads the posed scene anew, with the frame resources and technique that bind its buffers.
     fn rebuild_scene(&mut self) -> Result<(), RenderError> {
-        self.history_valid = false;
+        // History stays valid: the new upload is the same scene moved, and motion vectors bridge it.
         let ctx = self.ctx.clone();
         ctx.checked("uploading the moved scene", || -> Result<(), RenderError> {
             self.gpu_scene = GpuScene::new(&ctx, &self.posed.scene)?;
@@ -527,6 +538,19 @@ impl Renderer {
             self.counters.technique_builds += 1;
             Ok(())
         })?
+    }
+
+    /// Per mesh, the matrix from its world position in this frame to the previous frame's: the uploaded
+    /// geometry is posed at the current transform T, so the previous position is T_prev · T⁻¹ · p.
+    fn mesh_motion(&self) -> Vec<Mat4> {
+        match &self.previous_mesh_transforms {
+            Some(previous) if previous.len() == self.posed.mesh_transforms.len() => previous
+                .iter()
+                .zip(&self.posed.mesh_transforms)
+                .map(|(p, c)| if p == c { Mat4::IDENTITY } else { *p * c.inverse() })
+                .collect(),
+            _ => vec![Mat4::IDENTITY; self.posed.mesh_transforms.len()],
+        }
     }
 
     /// The view data of the next frame.
@@ -554,6 +578,7 @@ impl Renderer {
         let start = Instant::now();
         ctx.checked("rendering", || -> Result<(), RenderError> {
             self.frame.set_view(&ctx, &view, self.seed);
+            self.frame.set_mesh_motion(&ctx, &self.mesh_motion())?;
             self.profiler.begin_frame(&ctx);
             if self.info.needs.gbuffer {
                 self.frame.render_inputs(&ctx, &self.gpu_scene, &mut self.profiler)?;
@@ -573,6 +598,7 @@ impl Renderer {
             self.memory.push(MemorySample { frames: self.frames, report: self.ctx.memory_report() });
         }
         self.previous_view_proj = Some(view.view_proj);
+        self.previous_mesh_transforms = Some(self.posed.mesh_transforms.clone());
         self.previous_time = Some(self.time);
         self.frame_counter = self.frame_counter.wrapping_add(1);
         self.sample_index += 1;
@@ -593,6 +619,7 @@ impl Renderer {
             let view = self.next_view();
             ctx.checked("rendering the G-buffer", || -> Result<(), RenderError> {
                 self.frame.set_view(&ctx, &view, self.seed);
+                self.frame.set_mesh_motion(&ctx, &self.mesh_motion())?;
                 let mut profiler = Profiler::new(&ctx, TimingMode::Passes);
                 self.frame.render_inputs(&ctx, &self.gpu_scene, &mut profiler)?;
                 Ok(())
@@ -620,6 +647,21 @@ impl Renderer {
                 rgba_to_image(size, &half(&readback::read_texture(&ctx, &g.emission, 8)?), |p| {
                     [p[0], p[1], p[2]]
                 })
+            }
+            Aov::Motion => {
+                let m = readback::read_texture(&ctx, &g.motion, 8)?;
+                let m: &[f32] = bytemuck::cast_slice(&m);
+                HdrImage {
+                    width: size.0,
+                    height: size.1,
+                    rgb: m.chunks_exact(2).flat_map(|v| [v[0], v[1], 0.0]).collect(),
+                }
+            }
+            Aov::Instance => {
+                let ids = readback::read_texture(&ctx, &g.instance, 4)?;
+                let ids: &[u32] = bytemuck::cast_slice(&ids);
+                let rgb = ids.iter().flat_map(|&id| [id as f32 - 1.0; 3]).collect();
+                HdrImage { width: size.0, height: size.1, rgb }
             }
         })
     }

@@ -107,3 +107,92 @@ fn path_frames_match_static_renders_of_the_posed_scene_within_noise() {
         assert!(mean_difference < 0.005 && flip < 0.03, "frame {k}: mean {mean_difference}, FLIP {flip}");
     }
 }
+
+/// Checks the motion AOV of the frame at `t1` (after a frame at `t0`) against a CPU computation: each
+/// pixel's surface point, rebuilt from the depth AOV and the camera at `t1`, moved back by its mesh's
+/// transforms (instance AOV, `Scene::pose_at`) and projected with the camera at `t0`, must land where the
+/// motion vector points. Returns (pixels within 0.5 px, surface pixels) over all surface pixels and over
+/// the pixels of meshes that moved.
+fn motion_vectors_against_cpu(scene: Scene, t0: f32, t1: f32) -> [(usize, usize); 2] {
+    use rtgi::renderer::Aov;
+    let ctx = ctx();
+    let size = 64;
+    let settings = RendererSettings { width: size, height: size, ..settings("direct", &[]) };
+    let mut r = Renderer::new(&ctx, scene.clone(), &settings).expect("renderer");
+    r.set_time(t0).expect("time");
+    r.step().expect("frame");
+    r.set_time(t1).expect("time");
+    r.step().expect("frame");
+    let motion = r.read_aov(Aov::Motion).expect("motion");
+    let depth = r.read_aov(Aov::Depth).expect("depth");
+    let instance = r.read_aov(Aov::Instance).expect("instance");
+
+    let (pose0, pose1) = (scene.pose_at(t0), scene.pose_at(t1));
+    let view_proj0 = pose0.camera.view_projection(1.0);
+    let inverse1 = pose1.camera.view_projection(1.0).inverse();
+    let s = size as f32;
+    let (mut within, mut surface) = ([0; 2], [0; 2]);
+    for y in 0..size {
+        for x in 0..size {
+            let i = (y * size + x) as usize * 3;
+            let mesh = instance.rgb[i];
+            if mesh < 0.0 {
+                continue;
+            }
+            let centre = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let ndc = glam::Vec2::new(centre.x / s * 2.0 - 1.0, 1.0 - centre.y / s * 2.0);
+            let near = inverse1.project_point3(ndc.extend(0.0));
+            let far = inverse1.project_point3(ndc.extend(1.0));
+            let world = pose1.camera.position + (far - near).normalize() * depth.rgb[i];
+            let m = mesh as usize;
+            let previous = pose0.mesh_transforms[m] * pose1.mesh_transforms[m].inverse();
+            let object_moved = pose0.mesh_transforms[m] != pose1.mesh_transforms[m];
+            let before = view_proj0.project_point3(previous.transform_point3(world));
+            let expected = glam::Vec2::new((before.x + 1.0) * 0.5 * s, (1.0 - before.y) * 0.5 * s);
+            let vector = glam::Vec2::new(motion.rgb[i], motion.rgb[i + 1]);
+            let good = usize::from((centre + vector - expected).length() < 0.5);
+            for k in [0, 1].into_iter().filter(|&k| k == 0 || object_moved) {
+                surface[k] += 1;
+                within[k] += good;
+            }
+        }
+    }
+    eprintln!(
+        "motion {}: {} of {} pixels within 0.5 px; on moving objects {} of {}",
+        scene.name, within[0], surface[0], within[1], surface[1]
+    );
+    [(within[0], surface[0]), (within[1], surface[1])]
+}
+
+#[test]
+fn motion_vectors_follow_the_camera_and_moving_objects() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cases = [
+        // Camera only (a flight through the atrium), object only (a box through the Cornell box,
+        // static camera), and both at once (the hand-written file: camera, box and light move).
+        (
+            rtgi::scene::builtin::build("atrium", &[("animate".into(), "camera".into())]).expect("atrium"),
+            2.0,
+            2.2,
+        ),
+        (
+            rtgi::scene::builtin::build("cornell", &[("animate".into(), "box".into())]).expect("cornell"),
+            1.0,
+            1.1,
+        ),
+        (animated_scene(dir.path()), 0.4, 0.6),
+    ];
+    for (k, (scene, t0, t1)) in cases.into_iter().enumerate() {
+        let name = scene.name.clone();
+        let [(within, surface), (object_within, object_pixels)] = motion_vectors_against_cpu(scene, t0, t1);
+        // Measured on lavapipe: every surface pixel within 0.5 px (the issue asks for ≥ 99 %), on the
+        // moving objects too.
+        assert!(within as f64 >= 0.99 * surface as f64, "{name}: {within} of {surface} within 0.5 px");
+        assert!(
+            object_within as f64 >= 0.99 * object_pixels as f64,
+            "{name}: moving objects {object_within} of {object_pixels}"
+        );
+        // The object cases really show the moving box.
+        assert!(k == 0 || object_pixels >= 20, "{name}: only {object_pixels} pixels of moving objects");
+    }
+}

@@ -1,14 +1,34 @@
-// Deferred G-buffer: one draw of the whole scene. Layout of the targets: see common/frame.wgsl.
+// Deferred G-buffer: one draw per mesh (instance_index = the mesh's index). Layout of the targets: see
+// common/frame.wgsl.
 
 #import common/raster.wgsl
 
 struct Camera {
     view_proj: mat4x4f,
+    prev_view_proj: mat4x4f,
     position: vec3f,
     _pad: f32,
+    size: vec2f,
+    _pad2: vec2f,
 }
 
 @group(1) @binding(0) var<uniform> camera: Camera;
+// Per mesh: current world position -> the previous frame's (object motion; identity when static).
+@group(1) @binding(1) var<storage, read> mesh_motion: array<mat4x4f>;
+
+// SceneVertexOut's fields plus the motion inputs: entry-point IO cannot nest structs, so the shared
+// fields are listed again and reassembled into a SceneVertexOut in the fragment stage.
+struct GBufferVertexOut {
+    @builtin(position) clip: vec4f,
+    @location(0) world: vec3f,
+    @location(1) normal: vec3f,
+    @location(2) tangent: vec4f,
+    @location(3) uv: vec2f,
+    @location(4) @interpolate(flat) material: u32,
+    // The vertex's clip position in the previous frame.
+    @location(5) prev_clip: vec4f,
+    @location(6) @interpolate(flat) mesh: u32,
+}
 
 @vertex
 fn vs_main(
@@ -17,8 +37,13 @@ fn vs_main(
     @location(2) normal_oct: u32,
     @location(3) tangent_oct: u32,
     @location(4) uv: vec2f,
-) -> SceneVertexOut {
-    return scene_vertex(camera.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
+    @builtin(instance_index) mesh: u32,
+) -> GBufferVertexOut {
+    let v = scene_vertex(camera.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
+    var out = GBufferVertexOut(v.clip, v.world, v.normal, v.tangent, v.uv, v.material, vec4f(0.0), 0u);
+    out.prev_clip = camera.prev_view_proj * (mesh_motion[mesh] * vec4f(position, 1.0));
+    out.mesh = mesh;
+    return out;
 }
 
 struct GBufferOut {
@@ -27,6 +52,8 @@ struct GBufferOut {
     @location(2) material: vec2u,
     @location(3) emission: vec4f,
     @location(4) distance: f32,
+    @location(5) motion: vec2f,
+    @location(6) instance: u32,
 }
 
 // Mip level from screen-space UV derivatives, for the explicit-level lookups of the shared library.
@@ -37,8 +64,15 @@ fn texture_lod(uv: vec2f) -> f32 {
     return max(0.0, 0.5 * log2(max(dot(dx, dx), dot(dy, dy))));
 }
 
+// Framebuffer coordinates (pixels, y down) of a clip-space position.
+fn clip_to_pixel(clip: vec4f) -> vec2f {
+    let ndc = clip.xy / clip.w;
+    return vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * camera.size;
+}
+
 @fragment
-fn fs_main(in: SceneVertexOut) -> GBufferOut {
+fn fs_main(vertex: GBufferVertexOut) -> GBufferOut {
+    let in = SceneVertexOut(vertex.clip, vertex.world, vertex.normal, vertex.tangent, vertex.uv, vertex.material);
     let m = materials[in.material];
     let lod = texture_lod(in.uv);
     let s = material_at(m, in.uv, lod);
@@ -53,5 +87,8 @@ fn fs_main(in: SceneVertexOut) -> GBufferOut {
     out.material = vec2u(in.material, pack4x8unorm(vec4f(s.roughness, s.specular, 0.0, 0.0)));
     out.emission = vec4f(s.emission, 1.0);
     out.distance = length(to_camera);
+    // The previous position is interpolated in clip space (perspective-correct), then projected.
+    out.motion = clip_to_pixel(vertex.prev_clip) - in.clip.xy;
+    out.instance = vertex.mesh + 1u;
     return out;
 }

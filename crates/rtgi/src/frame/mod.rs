@@ -95,20 +95,27 @@ pub struct ShadowView {
     pub params: [f32; 4],
 }
 
+/// The G-buffer pass's camera (`Camera` in `gbuffer.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct CameraUniforms {
-    view_proj: [[f32; 4]; 4],
-    position: [f32; 3],
-    _pad: f32,
+pub(crate) struct CameraUniforms {
+    pub view_proj: [[f32; 4]; 4],
+    pub prev_view_proj: [[f32; 4]; 4],
+    pub position: [f32; 3],
+    pub _pad: f32,
+    pub size: [f32; 2],
+    pub _pad2: [f32; 2],
 }
 
 impl CameraUniforms {
-    fn of(view: &FrameView) -> Self {
+    fn of(view: &FrameView, width: u32, height: u32) -> Self {
         CameraUniforms {
             view_proj: view.view_proj.to_cols_array_2d(),
+            prev_view_proj: view.prev_view_proj.to_cols_array_2d(),
             position: view.camera.position.into(),
             _pad: 0.0,
+            size: [width as f32, height as f32],
+            _pad2: [0.0; 2],
         }
     }
 }
@@ -167,12 +174,17 @@ pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const MATERIAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Uint;
 pub const EMISSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const DISTANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+/// Screen-space motion in pixels, from the pixel to where its surface point was in the previous frame.
+/// 32-bit floats: half floats would be coarser than half a pixel beyond 1024 pixels of motion.
+pub const MOTION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
+/// The mesh (instance) index + 1 of the visible surface; 0 where the primary ray left the scene.
+pub const INSTANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The radiance output of every technique.
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
 /// Bytes per pixel of the G-buffer (targets + depth).
-pub const GBUFFER_BYTES_PER_PIXEL: u32 = 8 + 8 + 8 + 8 + 4 + 4;
+pub const GBUFFER_BYTES_PER_PIXEL: u32 = 8 + 8 + 8 + 8 + 4 + 8 + 4 + 4;
 
 pub(crate) const SHADOW_VIEW_STRIDE: u64 = 256;
 
@@ -182,6 +194,8 @@ pub struct GBuffer {
     pub material: wgpu::Texture,
     pub emission: wgpu::Texture,
     pub distance: wgpu::Texture,
+    pub motion: wgpu::Texture,
+    pub instance: wgpu::Texture,
     pub depth: wgpu::Texture,
 }
 
@@ -200,6 +214,8 @@ pub struct FrameResources {
     pub bind_group_layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
     camera_buffer: wgpu::Buffer,
+    mesh_motion: wgpu::Buffer,
+    mesh_count: usize,
     camera_bind_group: wgpu::BindGroup,
     gbuffer_pipeline: wgpu::RenderPipeline,
     shadow_maps: wgpu::Texture,
@@ -322,6 +338,8 @@ fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             tex(3, wgpu::TextureSampleType::Uint),
             tex(4, float),
             tex(5, float),
+            tex(9, float),
+            tex(10, wgpu::TextureSampleType::Uint),
             wgpu::BindGroupLayoutEntry {
                 binding: 6,
                 visibility: vis,
@@ -479,14 +497,23 @@ pub(crate) fn scene_raster_pipeline(
     })
 }
 
-/// Records one draw of the whole scene into a depth (and optional colour) pass.
+/// How [`draw_scene`] draws the scene's meshes.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Draws {
+    /// One indexed draw of every triangle.
+    One,
+    /// One draw per mesh with `instance_index` = the mesh's index (for per-mesh data in the shader).
+    PerMesh,
+}
+
+/// Records a draw of the whole scene into a depth (and optional colour) pass.
 pub(crate) fn draw_scene(
     encoder: &mut wgpu::CommandEncoder,
     label: &str,
     colors: &[Option<wgpu::RenderPassColorAttachment>],
     depth: &wgpu::TextureView,
     pipeline: &wgpu::RenderPipeline,
-    scene: &GpuScene,
+    (scene, draws): (&GpuScene, Draws),
     (group1, group1_offsets): (&wgpu::BindGroup, &[u32]),
 ) {
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -506,7 +533,14 @@ pub(crate) fn draw_scene(
     pass.set_bind_group(1, group1, group1_offsets);
     pass.set_vertex_buffer(0, scene.vertex_buffer.slice(..));
     pass.set_index_buffer(scene.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-    pass.draw_indexed(0..scene.index_count, 0, 0..1);
+    match draws {
+        Draws::One => pass.draw_indexed(0..scene.index_count, 0, 0..1),
+        Draws::PerMesh => {
+            for (mesh, range) in scene.mesh_ranges.iter().enumerate().filter(|(_, r)| !r.is_empty()) {
+                pass.draw_indexed(range.clone(), 0, mesh as u32..mesh as u32 + 1);
+            }
+        }
+    }
 }
 
 impl FrameResources {
@@ -566,6 +600,8 @@ impl FrameResources {
             material: target(ctx, "gbuffer material", width, height, MATERIAL_FORMAT),
             emission: target(ctx, "gbuffer emission", width, height, EMISSION_FORMAT),
             distance: target(ctx, "gbuffer distance", width, height, DISTANCE_FORMAT),
+            motion: target(ctx, "gbuffer motion", width, height, MOTION_FORMAT),
+            instance: target(ctx, "gbuffer instance", width, height, INSTANCE_FORMAT),
             depth: target(ctx, "gbuffer depth", width, height, DEPTH_FORMAT),
         };
         let shadow_maps = device.create_texture(&wgpu::TextureDescriptor {
@@ -602,11 +638,18 @@ impl FrameResources {
             ..Default::default()
         });
 
-        let gbuffer_targets: Vec<wgpu::TextureView> =
-            [&gbuffer.albedo, &gbuffer.normal, &gbuffer.material, &gbuffer.emission, &gbuffer.distance]
-                .iter()
-                .map(|t| t.create_view(&Default::default()))
-                .collect();
+        let gbuffer_targets: Vec<wgpu::TextureView> = [
+            &gbuffer.albedo,
+            &gbuffer.normal,
+            &gbuffer.material,
+            &gbuffer.emission,
+            &gbuffer.distance,
+            &gbuffer.motion,
+            &gbuffer.instance,
+        ]
+        .iter()
+        .map(|t| t.create_view(&Default::default()))
+        .collect();
         let gbuffer_depth = gbuffer.depth.create_view(&Default::default());
         let bind_group_layout = frame_layout(device);
         let texture_view = |t: &wgpu::Texture| t.create_view(&Default::default());
@@ -645,21 +688,62 @@ impl FrameResources {
                 },
                 wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&comparison) },
                 wgpu::BindGroupEntry { binding: 8, resource: shadow_view_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 9,
+                    resource: wgpu::BindingResource::TextureView(&texture_view(&gbuffer.motion)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 10,
+                    resource: wgpu::BindingResource::TextureView(&texture_view(&gbuffer.instance)),
+                },
             ],
         });
 
         // G-buffer pipeline.
-        let camera = CameraUniforms::of(&view);
+        let camera = CameraUniforms::of(&view, width, height);
         let camera_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
             contents: bytemuck::bytes_of(&camera),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
-        let camera_layout = uniform_layout(device, false);
+        // Per mesh, the matrix from its current world position to the previous frame's (object motion).
+        let mesh_motion = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("mesh motion"),
+            contents: bytemuck::cast_slice(&vec![Mat4::IDENTITY; gpu_scene.mesh_ranges.len().max(1)]),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
+        let camera_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gbuffer camera"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
         let camera_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("camera"),
             layout: &camera_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: camera_buffer.as_entire_binding() }],
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: camera_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: mesh_motion.as_entire_binding() },
+            ],
         });
         let gbuffer_module =
             shaders::create_module(ctx, "gbuffer", include_str!("gbuffer.wgsl"), &Defines::new())
@@ -682,6 +766,8 @@ impl FrameResources {
                 color(MATERIAL_FORMAT),
                 color(EMISSION_FORMAT),
                 color(DISTANCE_FORMAT),
+                color(MOTION_FORMAT),
+                color(INSTANCE_FORMAT),
             ],
         );
 
@@ -715,6 +801,8 @@ impl FrameResources {
             bind_group_layout,
             bind_group,
             camera_buffer,
+            mesh_motion,
+            mesh_count: gpu_scene.mesh_ranges.len(),
             camera_bind_group,
             gbuffer_pipeline,
             shadow_maps,
@@ -733,7 +821,28 @@ impl FrameResources {
         self.view = *view;
         self.uniforms.seed = seed;
         ctx.queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&self.uniforms));
-        ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(&CameraUniforms::of(view)));
+        let camera = CameraUniforms::of(view, self.width, self.height);
+        ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(&camera));
+    }
+
+    /// Sets each mesh's object motion: the matrix from its current world position to the previous
+    /// frame's (identity for meshes that did not move). Only the motion AOV reads it.
+    pub fn set_mesh_motion(
+        &mut self,
+        ctx: &GpuContext,
+        previous_from_current: &[Mat4],
+    ) -> Result<(), GpuError> {
+        if previous_from_current.len() != self.mesh_count {
+            return Err(GpuError::Other(format!(
+                "{} mesh motions for {} meshes",
+                previous_from_current.len(),
+                self.mesh_count
+            )));
+        }
+        if !previous_from_current.is_empty() {
+            ctx.queue.write_buffer(&self.mesh_motion, 0, bytemuck::cast_slice(previous_from_current));
+        }
+        Ok(())
     }
 
     /// Changes the shadow filter, bias and normal offset (uniforms only). The map size and whether
@@ -789,7 +898,7 @@ impl FrameResources {
                             &[],
                             &view,
                             pipeline,
-                            scene,
+                            (scene, Draws::One),
                             (&self.shadow_slots.bind_group, &[offset]),
                         );
                     }
@@ -805,10 +914,34 @@ impl FrameResources {
                 &attachments,
                 &self.gbuffer_depth,
                 &self.gbuffer_pipeline,
-                scene,
+                (scene, Draws::PerMesh),
                 (&self.camera_bind_group, &[]),
             );
         })?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::mem::offset_of;
+
+    use super::CameraUniforms;
+    use crate::shaders::{Defines, validate};
+
+    #[test]
+    fn gbuffer_shader_validates_and_its_camera_matches_rust() {
+        let m = validate("gbuffer", include_str!("gbuffer.wgsl"), &Defines::new());
+        crate::shaders::layout::assert_layout(
+            &m,
+            "Camera",
+            size_of::<CameraUniforms>(),
+            &[
+                ("view_proj", offset_of!(CameraUniforms, view_proj)),
+                ("prev_view_proj", offset_of!(CameraUniforms, prev_view_proj)),
+                ("position", offset_of!(CameraUniforms, position)),
+                ("size", offset_of!(CameraUniforms, size)),
+            ],
+        );
     }
 }

@@ -202,6 +202,9 @@ pub struct GpuScene {
     pub vertex_buffer: wgpu::Buffer,
     pub index_buffer: wgpu::Buffer,
     pub index_count: u32,
+    /// Each mesh's range in the index buffer, in scene order: per-mesh draws (the G-buffer's instance
+    /// ids and object motion) use them.
+    pub mesh_ranges: Vec<std::ops::Range<u32>>,
     pub material_buffer: wgpu::Buffer,
     pub light_buffer: wgpu::Buffer,
     /// The analytic lights as the GPU sees them: the one copy every pass reads (shadow layers assigned).
@@ -514,8 +517,10 @@ impl GpuScene {
         let mut indices = Vec::with_capacity(triangle_count * 3);
         let mut emissive = Vec::new();
         let mut tri_base = 0u32;
+        let mut mesh_ranges = Vec::with_capacity(scene.meshes.len());
         for mesh in &scene.meshes {
             let base = vertices.len() as u32;
+            mesh_ranges.push(indices.len() as u32..(indices.len() + mesh.indices.len()) as u32);
             for i in 0..mesh.positions.len() {
                 let t = mesh.tangents[i];
                 let flip = if t.w < 0.0 { TANGENT_FLIP_BIT } else { 0 };
@@ -785,6 +790,7 @@ impl GpuScene {
             vertex_buffer,
             index_buffer,
             index_count: indices.len() as u32,
+            mesh_ranges,
             material_buffer,
             light_buffer,
             lights,

@@ -50,6 +50,10 @@ struct ShadowView {
 @group(1) @binding(6) var shadow_maps: texture_depth_2d_array;
 @group(1) @binding(7) var shadow_sampler: sampler_comparison;
 @group(1) @binding(8) var<storage, read> shadow_views: array<ShadowView>;
+// screen-space motion in pixels: from the pixel to where its surface point was in the previous frame
+@group(1) @binding(9) var gb_motion: texture_2d<f32>;
+// mesh (instance) index + 1 of the visible surface; 0 where the primary ray left the scene
+@group(1) @binding(10) var gb_instance: texture_2d<u32>;
 
 // Progressive accumulation: the mean of `n + 1` samples from the mean of the first `n` and one more
 // (the first sample replaces whatever the output held).

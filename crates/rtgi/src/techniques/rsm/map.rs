@@ -299,7 +299,7 @@ impl ReflectiveShadowMap {
                     &colors,
                     &depth,
                     pipeline,
-                    scene,
+                    (scene, frame::Draws::One),
                     (&self.view_bind_group, &[layer * SHADOW_VIEW_STRIDE as u32]),
                 );
             }
