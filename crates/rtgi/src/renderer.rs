@@ -717,6 +717,7 @@ fn create_technique(
     info: &TechniqueInfo,
     params: &ParamValues,
 ) -> Result<Box<dyn Technique>, RenderError> {
+    crate::gpu::require(ctx, info.features, info.name)?;
     (info.create)(&TechniqueSetup { ctx, scene, gpu_scene, frame, params, output })
 }
 

@@ -1021,6 +1021,23 @@ mod tests {
     }
 
     #[test]
+    fn light_and_environment_kinds_agree_with_wgsl() {
+        let m = validate("kinds", "#import common/scene.wgsl\n", &Defines::new());
+        crate::shaders::layout::assert_u32_constants(
+            &m,
+            &[
+                ("LIGHT_POINT", LIGHT_POINT),
+                ("LIGHT_SPOT", LIGHT_SPOT),
+                ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+                ("ENV_NONE", ENV_NONE),
+                ("ENV_UNIFORM", ENV_UNIFORM),
+                ("ENV_SKY", ENV_SKY),
+                ("ENV_MAP", ENV_MAP),
+            ],
+        );
+    }
+
+    #[test]
     fn unit_vectors_survive_packing() {
         for i in 0..1000 {
             let a = i as f32 * 0.7;

@@ -178,6 +178,24 @@ mod tests {
 /// Layout checks of `#[repr(C)]` structs against their WGSL twins, through naga reflection.
 #[cfg(test)]
 pub mod layout {
+    /// Asserts that every named WGSL `const` of `module` has the Rust value next to it: enum constants
+    /// that Rust and WGSL both use (light kinds, environment kinds, ...) are checked instead of trusted.
+    pub fn assert_u32_constants(module: &naga::Module, constants: &[(&str, u32)]) {
+        for (name, value) in constants {
+            let (_, c) = module
+                .constants
+                .iter()
+                .find(|(_, c)| c.name.as_deref() == Some(*name))
+                .unwrap_or_else(|| panic!("WGSL const {name} not found"));
+            match module.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::U32(v)) => {
+                    assert_eq!(v, *value, "WGSL const {name} is {v}, Rust says {value}")
+                }
+                ref other => panic!("WGSL const {name} is not a u32 literal: {other:?}"),
+            }
+        }
+    }
+
     /// Size of the WGSL struct `name` and the byte offsets of its members, in declaration order.
     pub fn wgsl_struct(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
         let mut layouter = naga::proc::Layouter::default();

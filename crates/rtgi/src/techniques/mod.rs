@@ -142,9 +142,17 @@ pub struct TechniqueInfo {
     pub description: &'static str,
     pub params: &'static [ParamSpec],
     pub needs: FrameNeeds,
+    /// Optional device capabilities the technique cannot run without; the renderer checks them before
+    /// creating it, so a missing one is an error naming it.
+    pub features: &'static [crate::gpu::Need],
     pub motion: Motion,
     pub create: fn(&TechniqueSetup) -> Result<Box<dyn Technique>, RenderError>,
 }
+
+/// Read-write access to the `OUTPUT_FORMAT` radiance texture: every technique accumulates into it in
+/// place.
+pub const ACCUMULATES_OUTPUT: crate::gpu::Need =
+    crate::gpu::Need::StorageTexture { format: crate::frame::OUTPUT_FORMAT, read_write: true };
 
 /// Every technique, in the order `rtgi list` prints them.
 pub fn registry() -> &'static [TechniqueInfo] {

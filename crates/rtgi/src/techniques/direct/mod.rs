@@ -60,6 +60,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     description: "direct light only: shadow-mapped analytic lights, ray-traced area lights and environment",
     params: &DIRECT_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
     create,
 };

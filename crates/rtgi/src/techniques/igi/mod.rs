@@ -114,6 +114,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     description: "instant global illumination: VPLs, interleaved sampling, discontinuity filter of irradiance",
     params: &IGI_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
     create: create_classic,
 };
@@ -123,6 +124,7 @@ pub const SH_INFO: TechniqueInfo = TechniqueInfo {
     description: "IGI filtering incident radiance as order-2 SH: keeps normal-map detail, shades glossy BRDFs",
     params: &IGI_SH_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
     create: create_sh,
 };

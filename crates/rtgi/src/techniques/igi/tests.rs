@@ -11,6 +11,14 @@ fn with_vpl(source: &str) -> String {
 #[test]
 fn shaders_validate() {
     let m = validate("vpl generation", &with_vpl(include_str!("generate.wgsl")), &Defines::new());
+    crate::shaders::layout::assert_u32_constants(
+        &m,
+        &[
+            ("ENTRY_LIGHT", ENTRY_LIGHT),
+            ("ENTRY_EMISSIVE", ENTRY_EMISSIVE),
+            ("ENTRY_ENVIRONMENT", ENTRY_ENVIRONMENT),
+        ],
+    );
     assert_layout(
         &m,
         "Vpl",

@@ -60,6 +60,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     description: "reference path tracer: NEE for every light, GGX VNDF + Lambert BRDF sampling, MIS, roulette",
     params: PARAMS,
     needs: FrameNeeds { gbuffer: false },
+    features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
     create,
 };

@@ -124,6 +124,7 @@ pub const RSM_INFO: TechniqueInfo = TechniqueInfo {
                   reduced resolution + geometry-aware upsampling",
     params: &RSM_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
     create: |setup| Ok(Box::new(gather::Gather::new(setup, (1, 1), setup.params.int("downsample") as u32)?)),
 };
@@ -134,6 +135,7 @@ pub const RSM_INTERLEAVED_INFO: TechniqueInfo = TechniqueInfo {
                   and discontinuity filter",
     params: &RSM_INTERLEAVED_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
     create: |setup| Ok(Box::new(gather::Gather::new(setup, interleave_param(setup.params)?, 1)?)),
 };
@@ -144,6 +146,7 @@ pub const SII_INFO: TechniqueInfo = TechniqueInfo {
                   screen regions, optionally interleaved",
     params: &SII_PARAMS,
     needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
     create: |setup| Ok(Box::new(splat::Splat::new(setup, interleave_param(setup.params)?)?)),
 };
