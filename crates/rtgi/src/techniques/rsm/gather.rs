@@ -254,6 +254,17 @@ impl Gather {
 }
 
 impl Technique for Gather {
+    // The direct term reads the scene's lights and shadow maps every frame; the RSMs re-aim and render
+    // again.
+    fn lights_moved(
+        &mut self,
+        ctx: &GpuContext,
+        gpu_scene: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        self.rsm.lights_moved(ctx, gpu_scene);
+        Ok(true)
+    }
+
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let ctx = fc.ctx;
         let samples = gather_samples(&self.sampling, fc.frame.uniforms.seed, fc.view.frame_counter);

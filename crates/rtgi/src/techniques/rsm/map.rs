@@ -7,7 +7,7 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use crate::frame::{self, DEPTH_FORMAT, SHADOW_VIEW_STRIDE};
-use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL};
 use crate::gpu::{GpuContext, GpuScene, Profiler};
 use crate::scene::Scene;
 use crate::shaders::{self, Defines};
@@ -54,13 +54,40 @@ pub struct ReflectiveShadowMap {
     pub intensity: wgpu::Texture,
     depth: wgpu::Texture,
     pipeline: Option<wgpu::RenderPipeline>,
-    view_bind_group: wgpu::BindGroup,
+    view_slots: frame::ViewSlots,
+    views_buffer: wgpu::Buffer,
+    lights_buffer: wgpu::Buffer,
     /// Bind group 3 of the shaders built with [`reader_source`].
     pub layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
     /// What the RSM cannot represent (emissive triangles, environment light).
     pub warnings: Vec<String>,
-    rendered: bool,
+    /// The GPU scene's (lights version, geometry version) the maps were rendered for.
+    rendered: Option<(u64, u64)>,
+}
+
+/// One view per RSM layer: the lights' shadow views at the layers the lights carry, framing `bounds`.
+fn rsm_views(lights: &[GpuLight], bounds: crate::scene::Aabb, size: u32) -> Vec<RsmView> {
+    let shadow_views = frame::shadow_views(lights, bounds, size);
+    let mut views = Vec::with_capacity(shadow_views.len());
+    for (index, light) in lights.iter().enumerate() {
+        for k in 0..crate::gpu::scene::shadow_layer_count(light.kind) {
+            let v = &shadow_views[(light.shadow_layer + k) as usize];
+            views.push(RsmView {
+                view_proj: v.view_proj,
+                light: index as u32,
+                orthographic: u32::from(light.kind == LIGHT_DIRECTIONAL),
+                texel: v.params[0],
+                size: size as f32,
+            });
+        }
+    }
+    views
+}
+
+/// The bounds the GPU scene was uploaded with (what the views frame).
+fn scene_bounds(gpu_scene: &GpuScene) -> crate::scene::Aabb {
+    crate::scene::Aabb { min: gpu_scene.info.bounds_min.into(), max: gpu_scene.info.bounds_max.into() }
 }
 
 fn array_texture(
@@ -131,25 +158,7 @@ impl ReflectiveShadowMap {
             )));
         }
         let lights = &gpu_scene.lights;
-        let shadow_views = frame::shadow_views(lights, scene.bounds(), size);
-        let mut views = Vec::with_capacity(shadow_views.len());
-        for (index, light) in lights.iter().enumerate() {
-            let count = match light.kind {
-                LIGHT_POINT => 6,
-                LIGHT_SPOT | LIGHT_DIRECTIONAL => 1,
-                _ => 0,
-            };
-            for k in 0..count {
-                let v = &shadow_views[(light.shadow_layer + k) as usize];
-                views.push(RsmView {
-                    view_proj: v.view_proj,
-                    light: index as u32,
-                    orthographic: u32::from(light.kind == LIGHT_DIRECTIONAL),
-                    texel: v.params[0],
-                    size: size as f32,
-                });
-            }
-        }
+        let views = rsm_views(lights, scene_bounds(gpu_scene), size);
         let mut warnings = Vec::new();
         if gpu_scene.info.emissive_count > 0 {
             warnings.push(
@@ -182,7 +191,7 @@ impl ReflectiveShadowMap {
 
         let view_data: Vec<RsmView> = if views.is_empty() { vec![RsmView::zeroed()] } else { views.clone() };
         let view_layout = frame::uniform_layout(device, true);
-        let view_bind_group = frame::ViewSlots::new(device, "rsm view", &view_layout, &view_data).bind_group;
+        let view_slots = frame::ViewSlots::new(device, "rsm view", &view_layout, &view_data);
         let pipeline = if views.is_empty() {
             None
         } else {
@@ -212,7 +221,7 @@ impl ReflectiveShadowMap {
         let views_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rsm views"),
             contents: bytemuck::cast_slice(&view_data),
-            usage: wgpu::BufferUsages::STORAGE,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
         let light_data: Vec<GpuLight> = if lights.is_empty() {
             vec![GpuLight { shadow_layer: -1, ..GpuLight::zeroed() }]
@@ -222,7 +231,7 @@ impl ReflectiveShadowMap {
         let lights_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rsm lights"),
             contents: bytemuck::cast_slice(&light_data),
-            usage: wgpu::BufferUsages::STORAGE,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
         let layout = read_layout(ctx);
         let array_view = |t: &wgpu::Texture| {
@@ -260,11 +269,13 @@ impl ReflectiveShadowMap {
             intensity,
             depth,
             pipeline,
-            view_bind_group,
+            view_slots,
+            views_buffer,
+            lights_buffer,
             layout,
             bind_group,
             warnings,
-            rendered: false,
+            rendered: None,
         })
     }
 
@@ -273,17 +284,35 @@ impl ReflectiveShadowMap {
         self.size * self.size * self.views.len() as u32
     }
 
-    /// Renders the maps as the pass "rsm" (once: scene and lights are static).
+    /// Re-aims the views at the GPU scene's moved lights (same count and kinds); the maps render again
+    /// on the next [`Self::render`].
+    pub fn lights_moved(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene) {
+        if self.lights.len() != gpu_scene.lights.len() || gpu_scene.lights.is_empty() {
+            return;
+        }
+        let views = rsm_views(&gpu_scene.lights, scene_bounds(gpu_scene), self.size);
+        if !views.is_empty() {
+            ctx.queue.write_buffer(&self.views_buffer, 0, bytemuck::cast_slice(&views));
+            self.view_slots.write(ctx, &views);
+        }
+        ctx.queue.write_buffer(&self.lights_buffer, 0, bytemuck::cast_slice(&gpu_scene.lights));
+        self.lights = gpu_scene.lights.clone();
+        self.views = views;
+        self.rendered = None;
+    }
+
+    /// Renders the maps as the pass "rsm" when the lights or the geometry changed since the last time.
     pub fn render(
         &mut self,
         ctx: &GpuContext,
         scene: &GpuScene,
         profiler: &mut Profiler,
     ) -> Result<(), RenderError> {
-        if self.rendered {
+        let state = (scene.lights_version, scene.geometry_version);
+        if self.rendered == Some(state) {
             return Ok(());
         }
-        self.rendered = true;
+        self.rendered = Some(state);
         let Some(pipeline) = &self.pipeline else {
             return Ok(());
         };
@@ -300,7 +329,7 @@ impl ReflectiveShadowMap {
                     &depth,
                     pipeline,
                     (scene, frame::Draws::One),
-                    (&self.view_bind_group, &[layer * SHADOW_VIEW_STRIDE as u32]),
+                    (&self.view_slots.bind_group, &[layer * SHADOW_VIEW_STRIDE as u32]),
                 );
             }
         })?;

@@ -237,6 +237,19 @@ impl Splat {
 }
 
 impl Technique for Splat {
+    // The direct term reads the scene's lights and shadow maps every frame; the RSMs re-aim and render
+    // again.
+    fn lights_moved(
+        &mut self,
+        ctx: &GpuContext,
+        gpu_scene: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        self.rsm.lights_moved(ctx, gpu_scene);
+        // The VPL distribution follows the new flux.
+        self.cdf_built = false;
+        Ok(true)
+    }
+
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let ctx = fc.ctx;
         // A different stratification offset every frame (frame 0: the slice centres).
