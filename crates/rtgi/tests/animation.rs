@@ -199,7 +199,7 @@ fn motion_vectors_follow_the_camera_and_moving_objects() {
 
 /// A swinging spot light: after the light moves, every registered technique renders what a fresh
 /// renderer of the posed scene renders with the same random numbers (shadow maps and RSMs re-aimed and
-/// re-rendered); `direct`, `path` and the RSM family update in place instead of being created anew.
+/// re-rendered); all of them update in place instead of being created anew.
 #[test]
 fn moved_lights_render_like_a_fresh_renderer_for_every_technique() {
     let ctx = ctx();
@@ -226,10 +226,7 @@ fn moved_lights_render_like_a_fresh_renderer_for_every_technique() {
         // Measured: identical for every technique.
         assert_eq!(difference, 0.0, "{}: largest difference {difference}", info.name);
         let counters = animated.counters();
-        let in_place = ["direct", "path", "rsm", "rsm-interleaved", "sii"].contains(&info.name);
         assert_eq!(counters.scene_uploads, 1, "{}", info.name);
-        if in_place {
-            assert_eq!((counters.technique_builds, counters.light_updates), (1, 2), "{}", info.name);
-        }
+        assert_eq!((counters.technique_builds, counters.light_updates), (1, 2), "{}", info.name);
     }
 }

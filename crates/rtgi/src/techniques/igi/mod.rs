@@ -331,6 +331,10 @@ struct Igi {
     counters: BTreeMap<String, f64>,
     width: u32,
     height: u32,
+    /// The light entries VPL paths start from, and the scene radius they were computed with: they hold
+    /// light indices and powers, not positions, so moved lights keep them valid.
+    entries: Vec<LightEntry>,
+    radius: f32,
 }
 
 fn create_classic(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -580,6 +584,8 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     counters.insert("output_bytes_per_pixel".into(), 16.0);
     counters.insert("vpl_bytes".into(), (vpl_count * size_of::<GpuVpl>() as u64) as f64);
     Ok(Box::new(Igi {
+        entries,
+        radius,
         variant,
         direct,
         generate,
@@ -615,6 +621,22 @@ fn shade_defines(variant: Variant, direct_raster: bool) -> Defines {
 }
 
 impl Technique for Igi {
+    // VPLs are generated from the scene's light buffer every frame; only a change of the lights' powers
+    // (which the entries' CDF holds) needs a new technique.
+    fn lights_moved(
+        &mut self,
+        _: &GpuContext,
+        gpu_scene: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        let entries = light_entries(
+            &gpu_scene.lights,
+            gpu_scene.info.emissive_power,
+            gpu_scene.environment_power,
+            self.radius,
+        );
+        Ok(entries == self.entries)
+    }
+
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let groups = |g| [&fc.gpu_scene.bind_group, &fc.frame.bind_group, g];
         if let Some(direct) = &self.direct {
