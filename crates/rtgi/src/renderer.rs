@@ -24,8 +24,8 @@ use serde::Serialize;
 
 use crate::frame::{FrameResources, FrameView, OUTPUT_FORMAT, ShadowSettings};
 use crate::gpu::{
-    AdapterSummary, GpuContext, GpuScene, MemoryReport, PassTiming, Profiler, TimeSummary, TimingMode,
-    readback,
+    AdapterSummary, GpuContext, GpuError, GpuScene, MemoryReport, PassTiming, Profiler, TimeSummary,
+    TimingMode, readback,
 };
 use crate::image::HdrImage;
 use crate::params::ParamValues;
@@ -176,19 +176,13 @@ fn seed_of(params: &ParamValues) -> u32 {
     params.get("seed").map_or(0, |_| params.int("seed") as u32)
 }
 
-fn output_texture(ctx: &GpuContext, width: u32, height: u32) -> wgpu::Texture {
-    ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("radiance"),
-        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: OUTPUT_FORMAT,
-        usage: wgpu::TextureUsages::STORAGE_BINDING
-            | wgpu::TextureUsages::COPY_SRC
-            | wgpu::TextureUsages::TEXTURE_BINDING,
-        view_formats: &[],
-    })
+/// The radiance every technique writes (in place) and readback copies from.
+fn output_texture(ctx: &GpuContext, width: u32, height: u32) -> Result<wgpu::Texture, GpuError> {
+    crate::gpu::TextureBuilder::d2("radiance", width, height, OUTPUT_FORMAT)
+        .storage()
+        .sampled()
+        .copy()
+        .build(ctx)
 }
 
 /// The state the scene is shown in: the posed scene (world space at the current time) and its bounds.
@@ -250,7 +244,7 @@ impl Renderer {
                 settings.height,
                 ShadowSettings::from_params(&params),
             )?;
-            let output = output_texture(ctx, settings.width, settings.height);
+            let output = output_texture(ctx, settings.width, settings.height)?;
             let technique = create_technique(ctx, &posed.scene, &gpu_scene, &frame, &output, info, &params)?;
             Ok::<_, RenderError>((gpu_scene, frame, output, technique))
         })??;
@@ -472,7 +466,7 @@ impl Renderer {
                 ShadowSettings::from_params(&self.params),
             )?;
             self.counters.frame_builds += 1;
-            self.output = output_texture(&ctx, width, height);
+            self.output = output_texture(&ctx, width, height)?;
             self.technique = self.new_technique()?;
             self.counters.technique_builds += 1;
             Ok(())

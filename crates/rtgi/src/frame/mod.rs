@@ -6,7 +6,7 @@ use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
 use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, shadow_layer_count};
-use crate::gpu::{GpuContext, GpuError, GpuScene, Profiler};
+use crate::gpu::{GpuContext, GpuError, GpuScene, Profiler, TextureBuilder};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::scene::{Aabb, Camera, Scene};
 use crate::shaders::{self, Defines};
@@ -229,19 +229,15 @@ pub struct FrameResources {
     gbuffer_depth: wgpu::TextureView,
 }
 
-fn target(ctx: &GpuContext, label: &str, w: u32, h: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
-    ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
+/// A G-buffer target: rendered, read by techniques and read back for AOVs.
+fn target(
+    ctx: &GpuContext,
+    label: &str,
+    w: u32,
+    h: u32,
+    format: wgpu::TextureFormat,
+) -> Result<wgpu::Texture, GpuError> {
+    TextureBuilder::d2(label, w, h, format).render().sampled().copy().build(ctx)
 }
 
 fn any_perpendicular(d: Vec3) -> Vec3 {
@@ -595,29 +591,25 @@ impl FrameResources {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
         let gbuffer = GBuffer {
-            albedo: target(ctx, "gbuffer albedo", width, height, ALBEDO_FORMAT),
-            normal: target(ctx, "gbuffer normal", width, height, NORMAL_FORMAT),
-            material: target(ctx, "gbuffer material", width, height, MATERIAL_FORMAT),
-            emission: target(ctx, "gbuffer emission", width, height, EMISSION_FORMAT),
-            distance: target(ctx, "gbuffer distance", width, height, DISTANCE_FORMAT),
-            motion: target(ctx, "gbuffer motion", width, height, MOTION_FORMAT),
-            instance: target(ctx, "gbuffer instance", width, height, INSTANCE_FORMAT),
-            depth: target(ctx, "gbuffer depth", width, height, DEPTH_FORMAT),
+            albedo: target(ctx, "gbuffer albedo", width, height, ALBEDO_FORMAT)?,
+            normal: target(ctx, "gbuffer normal", width, height, NORMAL_FORMAT)?,
+            material: target(ctx, "gbuffer material", width, height, MATERIAL_FORMAT)?,
+            emission: target(ctx, "gbuffer emission", width, height, EMISSION_FORMAT)?,
+            distance: target(ctx, "gbuffer distance", width, height, DISTANCE_FORMAT)?,
+            motion: target(ctx, "gbuffer motion", width, height, MOTION_FORMAT)?,
+            instance: target(ctx, "gbuffer instance", width, height, INSTANCE_FORMAT)?,
+            depth: target(ctx, "gbuffer depth", width, height, DEPTH_FORMAT)?,
         };
-        let shadow_maps = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadow maps"),
-            size: wgpu::Extent3d {
-                width: settings.size,
-                height: settings.size,
-                depth_or_array_layers: shadow_layers,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+        let shadow_maps = TextureBuilder::d2_array(
+            "shadow maps",
+            settings.size,
+            settings.size,
+            shadow_layers,
+            DEPTH_FORMAT,
+        )
+        .render()
+        .sampled()
+        .build(ctx)?;
         let shadow_view_data: Vec<ShadowView> = if views.is_empty() {
             vec![ShadowView { view_proj: Mat4::IDENTITY.to_cols_array_2d(), params: [0.0; 4] }]
         } else {

@@ -96,19 +96,12 @@ fn array_texture(
     size: u32,
     layers: u32,
     format: wgpu::TextureFormat,
-) -> wgpu::Texture {
-    ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
+) -> Result<wgpu::Texture, crate::gpu::GpuError> {
+    crate::gpu::TextureBuilder::d2_array(label, size, size, layers, format)
+        .render()
+        .sampled()
+        .copy()
+        .build(ctx)
 }
 
 /// Visibility of the RSM bindings: compute passes, and the vertex and fragment stages of splats.
@@ -184,10 +177,10 @@ impl ReflectiveShadowMap {
                 limits.max_texture_array_layers
             )));
         }
-        let position = array_texture(ctx, "rsm position", size, layers, POSITION_FORMAT);
-        let normal = array_texture(ctx, "rsm normal", size, layers, NORMAL_FORMAT);
-        let intensity = array_texture(ctx, "rsm intensity", size, layers, INTENSITY_FORMAT);
-        let depth = array_texture(ctx, "rsm depth", size, layers, DEPTH_FORMAT);
+        let position = array_texture(ctx, "rsm position", size, layers, POSITION_FORMAT)?;
+        let normal = array_texture(ctx, "rsm normal", size, layers, NORMAL_FORMAT)?;
+        let intensity = array_texture(ctx, "rsm intensity", size, layers, INTENSITY_FORMAT)?;
+        let depth = array_texture(ctx, "rsm depth", size, layers, DEPTH_FORMAT)?;
 
         let view_data: Vec<RsmView> = if views.is_empty() { vec![RsmView::zeroed()] } else { views.clone() };
         let view_layout = frame::uniform_layout(device, true);
