@@ -4,8 +4,9 @@
 //! A change rebuilds only what it invalidates:
 //! - time: poses the scene; a moved camera restarts accumulation; moved lights rewrite the light
 //!   buffer, re-aim and re-render the shadow maps, and either update the technique in place
-//!   ([`Technique::lights_moved`]) or create it anew; moved geometry re-uploads the scene (see
-//!   [`RendererCounters::scene_uploads`]);
+//!   ([`Technique::lights_moved`]) or create it anew; a moved sky sun is re-baked in place
+//!   ([`GpuScene::update_environment`], [`Technique::environment_changed`]); moved geometry re-uploads
+//!   the scene (see [`RendererCounters::scene_uploads`]);
 //! - camera: restarts accumulation, keeps history (a camera move is not a cut; [`Renderer::cut`] is);
 //! - parameters that only feed uniforms (`seed`, shadow filter, bias and offset) write uniforms; others
 //!   create the technique anew (and the frame resources when the shadow-map size changes);
@@ -61,6 +62,8 @@ pub struct RendererCounters {
     pub shader_compilations: u64,
     /// Light updates applied in place (light buffer, shadow maps; technique updated itself).
     pub light_updates: u32,
+    /// Environment updates applied in place (a moving sky sun re-baked; technique updated itself).
+    pub environment_updates: u32,
 }
 
 /// Statistics of a run, written by `rtgi render --stats`.
@@ -384,8 +387,8 @@ impl Renderer {
             self.camera = posed.scene.camera;
             self.restart_accumulation();
         }
-        let geometry_moved = posed.mesh_transforms != self.posed.mesh_transforms
-            || posed.scene.environment != self.posed.scene.environment;
+        let geometry_moved = posed.mesh_transforms != self.posed.mesh_transforms;
+        let environment_changed = posed.scene.environment != self.posed.scene.environment;
         let lights_moved = posed.scene.lights != self.posed.scene.lights;
         self.posed = posed;
         if geometry_moved {
@@ -393,9 +396,25 @@ impl Renderer {
             self.restart_accumulation();
             return self.rebuild_scene();
         }
+        let ctx = self.ctx.clone();
+        if environment_changed {
+            self.restart_accumulation();
+            let in_place = ctx.checked("changing the environment", || {
+                self.gpu_scene.update_environment(&ctx, &self.posed.scene.environment)
+            })??;
+            if !in_place {
+                return self.rebuild_scene();
+            }
+            if ctx.checked("changing the environment", || {
+                self.technique.environment_changed(&ctx, &self.gpu_scene)
+            })?? {
+                self.counters.environment_updates += 1;
+            } else {
+                self.rebuild_technique()?;
+            }
+        }
         if lights_moved {
             self.restart_accumulation();
-            let ctx = self.ctx.clone();
             ctx.checked("moving the lights", || -> Result<(), RenderError> {
                 self.gpu_scene.update_lights(&ctx, &self.posed.scene.lights)?;
                 self.frame.update_shadow_views(&ctx, &self.gpu_scene, self.posed.bounds);

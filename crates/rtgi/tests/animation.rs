@@ -197,36 +197,45 @@ fn motion_vectors_follow_the_camera_and_moving_objects() {
     }
 }
 
-/// A swinging spot light: after the light moves, every registered technique renders what a fresh
-/// renderer of the posed scene renders with the same random numbers (shadow maps and RSMs re-aimed and
-/// re-rendered); all of them update in place instead of being created anew.
+/// A swinging spot light, and a sun (directional light and sky) turning over the atrium: after they
+/// move, every registered technique renders what a fresh renderer of the posed scene renders with the
+/// same random numbers (shadow maps and RSMs re-aimed and re-rendered, the sky re-baked with its
+/// sampling table), and all of them update in place instead of being created anew.
 #[test]
-fn moved_lights_render_like_a_fresh_renderer_for_every_technique() {
+fn moved_lights_and_sun_render_like_a_fresh_renderer_for_every_technique() {
     let ctx = ctx();
-    let scene =
-        rtgi::scene::builtin::build("cornell-spot", &[("animate".into(), "spot".into())]).expect("scene");
     let small: &[(&str, &str)] = &[("vpls", "64"), ("samples", "16"), ("spp", "1"), ("rsm_size", "64")];
-    for info in rtgi::techniques::registry() {
-        let set: Vec<(&str, &str)> =
-            small.iter().copied().filter(|(k, _)| info.params.iter().any(|p| p.name == *k)).collect();
-        let settings = RendererSettings { width: 32, height: 32, ..settings(info.name, &set) };
-        let mut animated = Renderer::new(&ctx, scene.clone(), &settings).expect("renderer");
-        animated.set_time(0.3).expect("time");
-        animated.step().expect("frame");
-        animated.set_time(0.9).expect("time");
-        let first_frame = animated.frame_counter();
-        animated.step().expect("frame");
-        let frame = animated.read_image().expect("readback");
+    for (name, animate, times) in [("cornell-spot", "spot", [0.3, 0.9]), ("atrium", "sun", [1.0, 2.5])] {
+        let scene = rtgi::scene::builtin::build(name, &[("animate".into(), animate.into())]).expect("scene");
+        for info in rtgi::techniques::registry() {
+            let set: Vec<(&str, &str)> =
+                small.iter().copied().filter(|(k, _)| info.params.iter().any(|p| p.name == *k)).collect();
+            let settings = RendererSettings { width: 32, height: 32, ..settings(info.name, &set) };
+            let mut animated = Renderer::new(&ctx, scene.clone(), &settings).expect("renderer");
+            animated.set_time(times[0]).expect("time");
+            animated.step().expect("frame");
+            animated.set_time(times[1]).expect("time");
+            let first_frame = animated.frame_counter();
+            animated.step().expect("frame");
+            let frame = animated.read_image().expect("readback");
 
-        let mut fresh = Renderer::new(&ctx, scene.posed(0.9), &settings).expect("renderer");
-        fresh.set_frame_counter(first_frame);
-        fresh.step().expect("frame");
-        let expected = fresh.read_image().expect("readback");
-        let difference = frame.rgb.iter().zip(&expected.rgb).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
-        // Measured: identical for every technique.
-        assert_eq!(difference, 0.0, "{}: largest difference {difference}", info.name);
-        let counters = animated.counters();
-        assert_eq!(counters.scene_uploads, 1, "{}", info.name);
-        assert_eq!((counters.technique_builds, counters.light_updates), (1, 2), "{}", info.name);
+            let mut fresh = Renderer::new(&ctx, scene.posed(times[1]), &settings).expect("renderer");
+            fresh.set_frame_counter(first_frame);
+            fresh.step().expect("frame");
+            let expected = fresh.read_image().expect("readback");
+            let difference =
+                frame.rgb.iter().zip(&expected.rgb).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+            // Measured: identical for every technique on both scenes.
+            assert_eq!(difference, 0.0, "{name} {}: largest difference {difference}", info.name);
+            let c = animated.counters();
+            assert_eq!(
+                (c.scene_uploads, c.technique_builds, c.light_updates),
+                (1, 1, 2),
+                "{name} {}",
+                info.name
+            );
+            let sun_updates = if animate == "sun" { 2 } else { 0 };
+            assert_eq!(c.environment_updates, sun_updates, "{name} {}", info.name);
+        }
     }
 }

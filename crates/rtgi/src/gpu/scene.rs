@@ -100,13 +100,19 @@ pub const SKY_BAKE_WIDTH: u32 = 128;
 pub const SKY_BAKE_HEIGHT: u32 = 64;
 
 /// Evaluates `environment_radiance` of `shaders/common/environment.wgsl` at the centre of every texel of a
-/// `SKY_BAKE_WIDTH` × `SKY_BAKE_HEIGHT` equirectangular grid and returns linear RGB.
-fn bake_environment(
-    ctx: &GpuContext,
-    scene_layout: &wgpu::BindGroupLayout,
-    scene_group: &wgpu::BindGroup,
-) -> Result<Vec<f32>, GpuError> {
-    const SOURCE: &str = "#import common/environment.wgsl
+/// `SKY_BAKE_WIDTH` × `SKY_BAKE_HEIGHT` equirectangular grid. Made once per scene upload, so a moving
+/// sun re-bakes without compiling anything.
+struct SkyBaker {
+    pipeline: wgpu::ComputePipeline,
+    out: wgpu::Buffer,
+    out_group: wgpu::BindGroup,
+}
+
+const SKY_BAKE_COUNT: u64 = (SKY_BAKE_WIDTH * SKY_BAKE_HEIGHT) as u64;
+
+impl SkyBaker {
+    fn new(ctx: &GpuContext, scene_layout: &wgpu::BindGroupLayout) -> Result<SkyBaker, GpuError> {
+        const SOURCE: &str = "#import common/environment.wgsl
 @group(1) @binding(0) var<storage, read_write> baked: array<vec4f>;
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -117,60 +123,68 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let uv = vec2f((f32(i % BAKE_W) + 0.5) / f32(BAKE_W), (f32(i / BAKE_W) + 0.5) / f32(BAKE_H));
     baked[i] = vec4f(environment_radiance(equirect_direction(uv)), 1.0);
 }";
-    let device = &ctx.device;
-    let count = (SKY_BAKE_WIDTH * SKY_BAKE_HEIGHT) as u64;
-    let defines = crate::shaders::Defines::new().u32("BAKE_W", SKY_BAKE_WIDTH).u32("BAKE_H", SKY_BAKE_HEIGHT);
-    let module = crate::shaders::create_module(ctx, "environment bake", SOURCE, &defines)
-        .map_err(|e| GpuError::Other(e.to_string()))?;
-    let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("environment bake"),
-        entries: &[wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: false },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }],
-    });
-    let out = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("environment bake"),
-        size: count * 16,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let out_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("environment bake"),
-        layout: &out_layout,
-        entries: &[wgpu::BindGroupEntry { binding: 0, resource: out.as_entire_binding() }],
-    });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("environment bake"),
-        bind_group_layouts: &[Some(scene_layout), Some(&out_layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("environment bake"),
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, scene_group, &[]);
-        pass.set_bind_group(1, &out_group, &[]);
-        pass.dispatch_workgroups((count as u32).div_ceil(64), 1, 1);
+        let device = &ctx.device;
+        let count = SKY_BAKE_COUNT;
+        let defines =
+            crate::shaders::Defines::new().u32("BAKE_W", SKY_BAKE_WIDTH).u32("BAKE_H", SKY_BAKE_HEIGHT);
+        let module = crate::shaders::create_module(ctx, "environment bake", SOURCE, &defines)
+            .map_err(|e| GpuError::Other(e.to_string()))?;
+        let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("environment bake"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let out = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("environment bake"),
+            size: count * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let out_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("environment bake"),
+            layout: &out_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: out.as_entire_binding() }],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("environment bake"),
+            bind_group_layouts: &[Some(scene_layout), Some(&out_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("environment bake"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Ok(SkyBaker { pipeline, out, out_group })
     }
-    ctx.queue.submit([encoder.finish()]);
-    let bytes = super::readback::read_buffer(ctx, &out, 0, count * 16)?;
-    let rgba: &[f32] = bytemuck::cast_slice(&bytes);
-    Ok(rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
+
+    /// The sky of `scene_group`'s scene info as linear RGB, rows top (zenith) to bottom.
+    fn bake(&self, ctx: &GpuContext, scene_group: &wgpu::BindGroup) -> Result<Vec<f32>, GpuError> {
+        let (pipeline, out, out_group, count) = (&self.pipeline, &self.out, &self.out_group, SKY_BAKE_COUNT);
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, scene_group, &[]);
+            pass.set_bind_group(1, out_group, &[]);
+            pass.dispatch_workgroups((count as u32).div_ceil(64), 1, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = super::readback::read_buffer(ctx, out, 0, count * 16)?;
+        let rgba: &[f32] = bytemuck::cast_slice(&bytes);
+        Ok(rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
+    }
 }
 
 /// Largest texture layer edge; bigger images are downsampled (and a warning is recorded).
@@ -225,6 +239,12 @@ pub struct GpuScene {
     /// ∫ luminance(L_env(ω)) dω over the sphere (W·m⁻²·sr⁻¹ · sr): the environment's weight when a
     /// technique chooses among light sources by power.
     pub environment_power: f32,
+    /// Bumped whenever [`GpuScene::update_environment`] changes the environment.
+    pub environment_version: u64,
+    info_buffer: wgpu::Buffer,
+    environment: wgpu::Texture,
+    environment_cdf: wgpu::Buffer,
+    sky_baker: Option<SkyBaker>,
 }
 
 struct TextureArrays {
@@ -753,10 +773,13 @@ impl GpuScene {
         let mut env = create_env(env_texels.0, env_texels.1, &env_texels.2);
         let mut env_cdf_buffer = env_cdf_buffer;
         let mut bind_group = make_bind_group(&env, &env_cdf_buffer);
+        let mut sky_baker = None;
         if info.env_kind == ENV_SKY {
             // The procedural sky is importance-sampled through a table baked from the shader's own sky
             // function (one source of truth); its radiance stays analytic.
-            let baked = bake_environment(ctx, &layout, &bind_group)?;
+            let baker = SkyBaker::new(ctx, &layout)?;
+            let baked = baker.bake(ctx, &bind_group)?;
+            sky_baker = Some(baker);
             let cdf = environment_cdf(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &baked);
             let rgba: Vec<f32> = baked.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
             env = create_env(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &rgba);
@@ -805,7 +828,63 @@ impl GpuScene {
             memory_bytes,
             warnings,
             environment_power,
+            environment_version: 0,
+            info_buffer,
+            environment: env,
+            environment_cdf: env_cdf_buffer,
+            sky_baker,
         })
+    }
+
+    /// Changes the environment in place where its kind stays and its tables keep their size: a sky
+    /// whose sun (or colours) moved is re-baked into the same texture and sampling table, a uniform
+    /// colour rewrites the scene info. Returns `false` for any other change (a new upload is needed).
+    pub fn update_environment(
+        &mut self,
+        ctx: &GpuContext,
+        environment: &Environment,
+    ) -> Result<bool, GpuError> {
+        let mut info = self.info;
+        match environment {
+            Environment::None if info.env_kind == ENV_NONE => return Ok(true),
+            Environment::Uniform(c) if info.env_kind == ENV_UNIFORM => info.env_radiance = (*c).into(),
+            Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance }
+                if info.env_kind == ENV_SKY =>
+            {
+                info.sun_direction = sun_direction.normalize_or(Vec3::Y).into();
+                info.sun_radiance = (*sun_radiance).into();
+                info.env_radiance = (*sky_radiance).into();
+                info.ground_radiance = (*ground_radiance).into();
+            }
+            _ => return Ok(false),
+        }
+        if bytemuck::bytes_of(&info) == bytemuck::bytes_of(&self.info) {
+            return Ok(true);
+        }
+        ctx.queue.write_buffer(&self.info_buffer, 0, bytemuck::bytes_of(&info));
+        self.info = info;
+        self.environment_power = match &self.sky_baker {
+            Some(baker) => {
+                let baked = baker.bake(ctx, &self.bind_group)?;
+                let cdf = environment_cdf(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &baked);
+                let rgba: Vec<f32> = baked.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
+                ctx.queue.write_texture(
+                    self.environment.as_image_copy(),
+                    bytemuck::cast_slice(&rgba),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(SKY_BAKE_WIDTH * 16),
+                        rows_per_image: Some(SKY_BAKE_HEIGHT),
+                    },
+                    self.environment.size(),
+                );
+                ctx.queue.write_buffer(&self.environment_cdf, 0, bytemuck::cast_slice(&cdf));
+                equirect_integral(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &rgba)
+            }
+            None => luminance(Vec3::from(info.env_radiance)) * 4.0 * std::f32::consts::PI,
+        };
+        self.environment_version += 1;
+        Ok(true)
     }
 
     /// Moves the analytic lights: `lights` must be the scene's lights posed anew (same count and kinds,

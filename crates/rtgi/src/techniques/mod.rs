@@ -124,6 +124,13 @@ pub trait Technique {
         Ok(false)
     }
 
+    /// The environment changed in place (a moving sky sun: the scene info, baked sky and sampling table
+    /// are already updated). Returns whether the technique is up to date; `false` recreates it.
+    fn environment_changed(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene) -> Result<bool, RenderError> {
+        let _ = (ctx, gpu_scene);
+        Ok(false)
+    }
+
     /// What the technique cannot render of this scene (e.g. light types it ignores), for the stats.
     fn warnings(&self) -> Vec<String> {
         Vec::new()

@@ -139,6 +139,16 @@ impl Technique for Direct {
         self.0.render(fc, profiler)
     }
 
+    // The environment (and its sampling table) is read from the scene every frame; it does not bounce in
+    // the RSM techniques.
+    fn environment_changed(
+        &mut self,
+        _: &crate::gpu::GpuContext,
+        _: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        Ok(true)
+    }
+
     // Lights are read from the scene's light buffer and shadow maps every frame.
     fn lights_moved(
         &mut self,

@@ -335,6 +335,32 @@ struct Igi {
     /// light indices and powers, not positions, so moved lights keep them valid.
     entries: Vec<LightEntry>,
     radius: f32,
+    /// The entries on the GPU (`None` when no VPL is generated).
+    entry_buffer: Option<wgpu::Buffer>,
+}
+
+impl Igi {
+    /// Rewrites the light entries for `gpu_scene`'s sources as they are now; `false` when their number
+    /// changed (a source's power reached or left zero), which needs a new technique.
+    fn update_entries(&mut self, ctx: &GpuContext, gpu_scene: &crate::gpu::GpuScene) -> bool {
+        let entries = light_entries(
+            &gpu_scene.lights,
+            gpu_scene.info.emissive_power,
+            gpu_scene.environment_power,
+            self.radius,
+        );
+        if entries == self.entries {
+            return true;
+        }
+        match &self.entry_buffer {
+            Some(buffer) if entries.len() == self.entries.len() => {
+                ctx.queue.write_buffer(buffer, 0, bytemuck::cast_slice(&entries));
+                self.entries = entries;
+                true
+            }
+            _ => false,
+        }
+    }
 }
 
 fn create_classic(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -402,6 +428,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         setup.gpu_scene.environment_power,
         radius,
     );
+    let mut entry_buffer_kept = None;
     let generate = match (&layout, entries.is_empty() && analytic_lights == 0) {
         (Some(layout), false) => {
             counters.insert("paths_per_set".into(), f64::from(layout.paths));
@@ -416,7 +443,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
             let entry_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("light entries"),
                 contents: bytemuck::cast_slice(&entries),
-                usage: wgpu::BufferUsages::STORAGE,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             });
             let params = VplGeneration {
                 sets,
@@ -462,6 +489,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
                 "main",
                 &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &group_layout],
             )?;
+            entry_buffer_kept = Some(entry_buffer);
             Some((pipeline, group, (sets * layout.paths.max(layout.fixed)).div_ceil(64)))
         }
         _ => {
@@ -586,6 +614,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     Ok(Box::new(Igi {
         entries,
         radius,
+        entry_buffer: entry_buffer_kept,
         variant,
         direct,
         generate,
@@ -623,18 +652,22 @@ fn shade_defines(variant: Variant, direct_raster: bool) -> Defines {
 impl Technique for Igi {
     // VPLs are generated from the scene's light buffer every frame; only a change of the lights' powers
     // (which the entries' CDF holds) needs a new technique.
+    // VPLs are generated from the scene's light buffer and environment every frame; the light entries
+    // (which source a path starts from, by power) are rewritten in place.
     fn lights_moved(
         &mut self,
-        _: &GpuContext,
+        ctx: &GpuContext,
         gpu_scene: &crate::gpu::GpuScene,
     ) -> Result<bool, RenderError> {
-        let entries = light_entries(
-            &gpu_scene.lights,
-            gpu_scene.info.emissive_power,
-            gpu_scene.environment_power,
-            self.radius,
-        );
-        Ok(entries == self.entries)
+        Ok(self.update_entries(ctx, gpu_scene))
+    }
+
+    fn environment_changed(
+        &mut self,
+        ctx: &GpuContext,
+        gpu_scene: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        Ok(self.update_entries(ctx, gpu_scene))
     }
 
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {

@@ -155,6 +155,16 @@ impl Technique for PathTracer {
         Ok(())
     }
 
+    // The environment (and its sampling table) is read from the scene every frame; it does not bounce in
+    // the RSM techniques.
+    fn environment_changed(
+        &mut self,
+        _: &crate::gpu::GpuContext,
+        _: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        Ok(true)
+    }
+
     // Lights are read from the scene's light buffer every frame.
     fn lights_moved(&mut self, _: &GpuContext, _: &crate::gpu::GpuScene) -> Result<bool, RenderError> {
         Ok(true)

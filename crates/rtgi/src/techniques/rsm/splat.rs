@@ -237,6 +237,16 @@ impl Splat {
 }
 
 impl Technique for Splat {
+    // The environment (and its sampling table) is read from the scene every frame; it does not bounce in
+    // the RSM techniques.
+    fn environment_changed(
+        &mut self,
+        _: &crate::gpu::GpuContext,
+        _: &crate::gpu::GpuScene,
+    ) -> Result<bool, RenderError> {
+        Ok(true)
+    }
+
     // The direct term reads the scene's lights and shadow maps every frame; the RSMs re-aim and render
     // again.
     fn lights_moved(
