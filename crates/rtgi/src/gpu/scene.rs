@@ -487,6 +487,177 @@ pub(crate) fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
+/// The GPU materials of `scene` and the texture-array layers they use, checked against the device's
+/// layer limit.
+fn gpu_materials(ctx: &GpuContext, scene: &Scene) -> Result<(Vec<GpuMaterial>, LayerTable), GpuError> {
+    let mut table = LayerTable { srgb: Vec::new(), linear: Vec::new(), map: HashMap::new() };
+    let materials: Vec<GpuMaterial> = scene
+        .materials
+        .iter()
+        .map(|m| GpuMaterial {
+            base_color: m.base_color.into(),
+            emissive: m.emissive.into(),
+            normal_scale: m.normal_scale,
+            metallic: m.metallic,
+            roughness: m.roughness,
+            alpha_cutoff: match m.alpha_mode {
+                AlphaMode::Mask { cutoff } => cutoff,
+                AlphaMode::Opaque | AlphaMode::Blend => -1.0,
+            },
+            specular: m.specular,
+            tex_base: table.layer(m.base_color_texture, true),
+            tex_metal_rough: table.layer(m.metallic_roughness_texture, false),
+            tex_emissive: table.layer(m.emissive_texture, true),
+            tex_normal: table.layer(m.normal_texture, false),
+        })
+        .collect();
+    let max_layers = ctx.limits().max_texture_array_layers as usize;
+    for (what, n) in [("sRGB", table.srgb.len()), ("linear", table.linear.len())] {
+        if n > max_layers {
+            return Err(GpuError::OverLimit(format!(
+                "scene '{}' uses {n} {what} textures, over the device's max_texture_array_layers of {max_layers}",
+                scene.name
+            )));
+        }
+    }
+    Ok((materials, table))
+}
+
+/// The scene's meshes concatenated in order: triangle t of the scene is `indices[3t..3t+3]`.
+struct Geometry {
+    vertices: Vec<GpuVertex>,
+    indices: Vec<u32>,
+    mesh_ranges: Vec<std::ops::Range<u32>>,
+}
+
+fn pack_geometry(scene: &Scene, vertex_count: usize, triangle_count: usize) -> Geometry {
+    let mut vertices = Vec::with_capacity(vertex_count);
+    let mut indices = Vec::with_capacity(triangle_count * 3);
+    let mut mesh_ranges = Vec::with_capacity(scene.meshes.len());
+    for mesh in &scene.meshes {
+        let base = vertices.len() as u32;
+        mesh_ranges.push(indices.len() as u32..(indices.len() + mesh.indices.len()) as u32);
+        for i in 0..mesh.positions.len() {
+            let t = mesh.tangents[i];
+            let flip = if t.w < 0.0 { TANGENT_FLIP_BIT } else { 0 };
+            vertices.push(GpuVertex {
+                position: mesh.positions[i].into(),
+                material_flags: (mesh.material & MATERIAL_MASK) | flip,
+                normal_oct: pack_unit_vector(mesh.normals[i].normalize_or(Vec3::Y)),
+                tangent_oct: pack_unit_vector(t.truncate().normalize_or(Vec3::X)),
+                uv: mesh.uvs[i].into(),
+            });
+        }
+        indices.extend(mesh.indices.iter().map(|i| i + base));
+    }
+    Geometry { vertices, indices, mesh_ranges }
+}
+
+/// The emissive triangles with their power CDF, and the per-material area density of emitted power.
+struct Emitters {
+    triangles: Vec<GpuEmissiveTriangle>,
+    pdf: Vec<f32>,
+    total_power: f64,
+}
+
+fn emitters(scene: &Scene) -> Emitters {
+    let mut emissive = Vec::new();
+    let mut tri_base = 0u32;
+    for mesh in &scene.meshes {
+        let mat = &scene.materials[mesh.material as usize];
+        if mat.is_emissive() {
+            // Power ∝ luminance of the emission factor × area (× mean texel of an emissive texture).
+            let tex_mean = mat
+                .emissive_texture
+                .map_or(1.0, |t| mean_srgb_luminance(&scene.textures[t.texture as usize]));
+            let radiance = luminance(mat.emissive) * tex_mean;
+            for (k, tri) in mesh.indices.chunks_exact(3).enumerate() {
+                let [a, b, c] = [0, 1, 2].map(|j| mesh.positions[tri[j] as usize]);
+                let area = 0.5 * (b - a).cross(c - a).length();
+                if area > 0.0 && radiance > 0.0 {
+                    emissive.push(GpuEmissiveTriangle {
+                        triangle: tri_base + k as u32,
+                        cdf: 0.0,
+                        area,
+                        power: radiance * area * std::f32::consts::PI,
+                    });
+                }
+            }
+        }
+        tri_base += (mesh.indices.len() / 3) as u32;
+    }
+    let total_power: f64 = emissive.iter().map(|e| f64::from(e.power)).sum();
+    // power = L · A · π for a Lambertian emitter, so the area density of a point is L · π / total.
+    let emission_pdf: Vec<f32> = scene
+        .materials
+        .iter()
+        .map(|m| {
+            if !m.is_emissive() || total_power <= 0.0 {
+                return 0.0;
+            }
+            let tex_mean =
+                m.emissive_texture.map_or(1.0, |t| mean_srgb_luminance(&scene.textures[t.texture as usize]));
+            (f64::from(luminance(m.emissive) * tex_mean) * std::f64::consts::PI / total_power) as f32
+        })
+        .collect();
+    let mut running = 0.0f64;
+    for e in &mut emissive {
+        running += f64::from(e.power);
+        e.cdf = (running / total_power) as f32;
+    }
+    if let Some(last) = emissive.last_mut() {
+        last.cdf = 1.0;
+    }
+    Emitters { triangles: emissive, pdf: emission_pdf, total_power }
+}
+
+/// Writes the environment's kind and analytic parameters (a map's intensity) into `info`.
+fn environment_info(environment: &Environment, info: &mut GpuSceneInfo) {
+    match environment {
+        Environment::None => info.env_kind = ENV_NONE,
+        Environment::Uniform(c) => {
+            info.env_kind = ENV_UNIFORM;
+            info.env_radiance = (*c).into();
+        }
+        Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance } => {
+            info.env_kind = ENV_SKY;
+            info.sun_direction = sun_direction.normalize_or(Vec3::Y).into();
+            info.sun_radiance = (*sun_radiance).into();
+            info.env_radiance = (*sky_radiance).into();
+            info.ground_radiance = (*ground_radiance).into();
+        }
+        Environment::Map(map) => {
+            info.env_kind = ENV_MAP;
+            info.env_intensity = map.intensity;
+        }
+    }
+}
+
+/// Width, height and RGBA texels of the environment texture.
+type EnvironmentTexels = (u32, u32, Vec<f32>);
+
+/// The environment's texels and sampling table as uploaded: a map's own, or a 1×1 placeholder that the
+/// sky bake replaces. Sets `info`'s environment fields.
+fn environment_tables(
+    ctx: &GpuContext,
+    environment: &Environment,
+    info: &mut GpuSceneInfo,
+) -> Result<(EnvironmentTexels, Vec<f32>), GpuError> {
+    environment_info(environment, info);
+    let Environment::Map(map) = environment else {
+        return Ok(((1, 1, vec![0.0; 4]), vec![0.0; 4]));
+    };
+    let max = ctx.limits().max_texture_dimension_2d;
+    if map.width > max || map.height > max {
+        return Err(GpuError::OverLimit(format!(
+            "environment map '{}' is {}x{}, over the device's max_texture_dimension_2d of {max}",
+            map.path, map.width, map.height
+        )));
+    }
+    let rgba: Vec<f32> = map.rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
+    Ok(((map.width, map.height, rgba), environment_cdf(map.width, map.height, &map.rgb)))
+}
+
 impl GpuScene {
     /// Uploads `scene`. Device limits are checked before any allocation.
     pub fn new(ctx: &GpuContext, scene: &Scene) -> Result<GpuScene, GpuError> {
@@ -500,104 +671,10 @@ impl GpuScene {
         ctx.check_storage_size("the vertex buffer", (vertex_count * size_of::<GpuVertex>()) as u64)?;
         ctx.check_storage_size("the index buffer", (triangle_count * 12) as u64)?;
 
-        // Materials and texture layers.
-        let mut table = LayerTable { srgb: Vec::new(), linear: Vec::new(), map: HashMap::new() };
-        let materials: Vec<GpuMaterial> = scene
-            .materials
-            .iter()
-            .map(|m| GpuMaterial {
-                base_color: m.base_color.into(),
-                emissive: m.emissive.into(),
-                normal_scale: m.normal_scale,
-                metallic: m.metallic,
-                roughness: m.roughness,
-                alpha_cutoff: match m.alpha_mode {
-                    AlphaMode::Mask { cutoff } => cutoff,
-                    AlphaMode::Opaque | AlphaMode::Blend => -1.0,
-                },
-                specular: m.specular,
-                tex_base: table.layer(m.base_color_texture, true),
-                tex_metal_rough: table.layer(m.metallic_roughness_texture, false),
-                tex_emissive: table.layer(m.emissive_texture, true),
-                tex_normal: table.layer(m.normal_texture, false),
-            })
-            .collect();
-        let max_layers = ctx.limits().max_texture_array_layers as usize;
-        for (what, n) in [("sRGB", table.srgb.len()), ("linear", table.linear.len())] {
-            if n > max_layers {
-                return Err(GpuError::OverLimit(format!(
-                    "scene '{}' uses {n} {what} textures, over the device's max_texture_array_layers of {max_layers}",
-                    scene.name
-                )));
-            }
-        }
+        let (materials, table) = gpu_materials(ctx, scene)?;
 
-        // Geometry: meshes concatenated in order; triangle t of the scene is indices[3t..3t+3].
-        let mut vertices = Vec::with_capacity(vertex_count);
-        let mut indices = Vec::with_capacity(triangle_count * 3);
-        let mut emissive = Vec::new();
-        let mut tri_base = 0u32;
-        let mut mesh_ranges = Vec::with_capacity(scene.meshes.len());
-        for mesh in &scene.meshes {
-            let base = vertices.len() as u32;
-            mesh_ranges.push(indices.len() as u32..(indices.len() + mesh.indices.len()) as u32);
-            for i in 0..mesh.positions.len() {
-                let t = mesh.tangents[i];
-                let flip = if t.w < 0.0 { TANGENT_FLIP_BIT } else { 0 };
-                vertices.push(GpuVertex {
-                    position: mesh.positions[i].into(),
-                    material_flags: (mesh.material & MATERIAL_MASK) | flip,
-                    normal_oct: pack_unit_vector(mesh.normals[i].normalize_or(Vec3::Y)),
-                    tangent_oct: pack_unit_vector(t.truncate().normalize_or(Vec3::X)),
-                    uv: mesh.uvs[i].into(),
-                });
-            }
-            indices.extend(mesh.indices.iter().map(|i| i + base));
-            let mat = &scene.materials[mesh.material as usize];
-            if mat.is_emissive() {
-                // Power ∝ luminance of the emission factor × area (× mean texel of an emissive texture).
-                let tex_mean = mat
-                    .emissive_texture
-                    .map_or(1.0, |t| mean_srgb_luminance(&scene.textures[t.texture as usize]));
-                let radiance = luminance(mat.emissive) * tex_mean;
-                for (k, tri) in mesh.indices.chunks_exact(3).enumerate() {
-                    let [a, b, c] = [0, 1, 2].map(|j| mesh.positions[tri[j] as usize]);
-                    let area = 0.5 * (b - a).cross(c - a).length();
-                    if area > 0.0 && radiance > 0.0 {
-                        emissive.push(GpuEmissiveTriangle {
-                            triangle: tri_base + k as u32,
-                            cdf: 0.0,
-                            area,
-                            power: radiance * area * std::f32::consts::PI,
-                        });
-                    }
-                }
-            }
-            tri_base += (mesh.indices.len() / 3) as u32;
-        }
-        let total_power: f64 = emissive.iter().map(|e| f64::from(e.power)).sum();
-        // power = L · A · π for a Lambertian emitter, so the area density of a point is L · π / total.
-        let emission_pdf: Vec<f32> = scene
-            .materials
-            .iter()
-            .map(|m| {
-                if !m.is_emissive() || total_power <= 0.0 {
-                    return 0.0;
-                }
-                let tex_mean = m
-                    .emissive_texture
-                    .map_or(1.0, |t| mean_srgb_luminance(&scene.textures[t.texture as usize]));
-                (f64::from(luminance(m.emissive) * tex_mean) * std::f64::consts::PI / total_power) as f32
-            })
-            .collect();
-        let mut running = 0.0f64;
-        for e in &mut emissive {
-            running += f64::from(e.power);
-            e.cdf = (running / total_power) as f32;
-        }
-        if let Some(last) = emissive.last_mut() {
-            last.cdf = 1.0;
-        }
+        let Geometry { vertices, indices, mesh_ranges } = pack_geometry(scene, vertex_count, triangle_count);
+        let Emitters { triangles: emissive, pdf: emission_pdf, total_power } = emitters(scene);
 
         let lights = gpu_lights(&scene.lights);
         let bounds = scene.bounds();
@@ -619,36 +696,7 @@ impl GpuScene {
             bounds_max: bounds.max.into(),
             _pad3: 0.0,
         };
-        let mut env_texels: (u32, u32, Vec<f32>) = (1, 1, vec![0.0; 4]);
-        let mut env_cdf: Vec<f32> = vec![0.0; 4];
-        match &scene.environment {
-            Environment::None => {}
-            Environment::Uniform(c) => {
-                info.env_kind = ENV_UNIFORM;
-                info.env_radiance = (*c).into();
-            }
-            Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance } => {
-                info.env_kind = ENV_SKY;
-                info.sun_direction = sun_direction.normalize_or(Vec3::Y).into();
-                info.sun_radiance = (*sun_radiance).into();
-                info.env_radiance = (*sky_radiance).into();
-                info.ground_radiance = (*ground_radiance).into();
-            }
-            Environment::Map(map) => {
-                info.env_kind = ENV_MAP;
-                info.env_intensity = map.intensity;
-                let max = ctx.limits().max_texture_dimension_2d;
-                if map.width > max || map.height > max {
-                    return Err(GpuError::OverLimit(format!(
-                        "environment map '{}' is {}x{}, over the device's max_texture_dimension_2d of {max}",
-                        map.path, map.width, map.height
-                    )));
-                }
-                let rgba: Vec<f32> = map.rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
-                env_texels = (map.width, map.height, rgba);
-                env_cdf = environment_cdf(map.width, map.height, &map.rgb);
-            }
-        }
+        let (mut env_texels, env_cdf) = environment_tables(ctx, &scene.environment, &mut info)?;
 
         let device = &ctx.device;
         let storage =
@@ -844,20 +892,17 @@ impl GpuScene {
         ctx: &GpuContext,
         environment: &Environment,
     ) -> Result<bool, GpuError> {
-        let mut info = self.info;
-        match environment {
-            Environment::None if info.env_kind == ENV_NONE => return Ok(true),
-            Environment::Uniform(c) if info.env_kind == ENV_UNIFORM => info.env_radiance = (*c).into(),
-            Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance }
-                if info.env_kind == ENV_SKY =>
-            {
-                info.sun_direction = sun_direction.normalize_or(Vec3::Y).into();
-                info.sun_radiance = (*sun_radiance).into();
-                info.env_radiance = (*sky_radiance).into();
-                info.ground_radiance = (*ground_radiance).into();
-            }
-            _ => return Ok(false),
+        let same_kind = matches!(
+            (environment, self.info.env_kind),
+            (Environment::None, ENV_NONE)
+                | (Environment::Uniform(_), ENV_UNIFORM)
+                | (Environment::Sky { .. }, ENV_SKY)
+        );
+        if !same_kind {
+            return Ok(false);
         }
+        let mut info = self.info;
+        environment_info(environment, &mut info);
         if bytemuck::bytes_of(&info) == bytemuck::bytes_of(&self.info) {
             return Ok(true);
         }
