@@ -4,8 +4,8 @@
 //! A change rebuilds only what it invalidates:
 //! - time: poses the scene; a moved camera restarts accumulation; moved lights rewrite the light
 //!   buffer, re-aim and re-render the shadow maps, and either update the technique in place
-//!   ([`Technique::lights_moved`]) or create it anew; a moved sky sun is re-baked in place
-//!   ([`GpuScene::update_environment`], [`Technique::environment_changed`]); moved geometry re-uploads
+//!   ([`Technique::scene_changed`]) or create it anew; a moved sky sun is re-baked in place
+//!   ([`GpuScene::update_environment`], [`Technique::scene_changed`]); moved geometry re-uploads
 //!   the scene (see [`RendererCounters::scene_uploads`]);
 //! - camera: restarts accumulation, keeps history (a camera move is not a cut; [`Renderer::cut`] is);
 //! - parameters that only feed uniforms (`seed`, shadow filter, bias and offset) write uniforms; others
@@ -32,7 +32,7 @@ use crate::image::HdrImage;
 use crate::params::ParamValues;
 use crate::scene::{Aabb, Camera, Scene};
 use crate::techniques::{
-    self, FrameContext, Measured, RenderError, Technique, TechniqueInfo, TechniqueSetup,
+    self, FrameContext, Measured, RenderError, SceneChange, Technique, TechniqueInfo, TechniqueSetup,
 };
 
 /// What to create a [`Renderer`] with.
@@ -405,9 +405,10 @@ impl Renderer {
             if !in_place {
                 return self.rebuild_scene();
             }
-            if ctx.checked("changing the environment", || {
-                self.technique.environment_changed(&ctx, &self.gpu_scene)
-            })?? {
+            let updated = ctx.checked("changing the environment", || {
+                self.technique.scene_changed(&ctx, &self.gpu_scene, SceneChange::Environment)
+            })??;
+            if updated {
                 self.counters.environment_updates += 1;
             } else {
                 self.rebuild_technique()?;
@@ -418,7 +419,7 @@ impl Renderer {
             ctx.checked("moving the lights", || -> Result<(), RenderError> {
                 self.gpu_scene.update_lights(&ctx, &self.posed.scene.lights)?;
                 self.frame.update_shadow_views(&ctx, &self.gpu_scene, self.posed.bounds);
-                if self.technique.lights_moved(&ctx, &self.gpu_scene)? {
+                if self.technique.scene_changed(&ctx, &self.gpu_scene, SceneChange::Lights)? {
                     self.counters.light_updates += 1;
                     Ok(())
                 } else {

@@ -82,6 +82,15 @@ impl Measured<'_> {
     }
 }
 
+/// What changed in place in the GPU scene (see [`Technique::scene_changed`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneChange {
+    /// Analytic lights moved (same count and kinds).
+    Lights,
+    /// The environment changed (e.g. a sky whose sun moved).
+    Environment,
+}
+
 /// How a technique behaves when the camera, lights or objects move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Motion {
@@ -116,18 +125,17 @@ pub trait Technique {
         Ok(BTreeMap::new())
     }
 
-    /// The scene's analytic lights moved (the GPU scene's light buffer and [`GpuScene::lights_version`]
-    /// are already updated). Returns whether the technique brought itself up to date; `false` makes
-    /// the renderer create it anew, which is always correct but recompiles its pipelines.
-    fn lights_moved(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene) -> Result<bool, RenderError> {
-        let _ = (ctx, gpu_scene);
-        Ok(false)
-    }
-
-    /// The environment changed in place (a moving sky sun: the scene info, baked sky and sampling table
-    /// are already updated). Returns whether the technique is up to date; `false` recreates it.
-    fn environment_changed(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene) -> Result<bool, RenderError> {
-        let _ = (ctx, gpu_scene);
+    /// Something the technique may have derived state from changed in place: the GPU scene's light
+    /// buffer and [`GpuScene::lights_version`], or its environment (scene info, baked sky, sampling
+    /// table), are already updated. Returns whether the technique brought itself up to date; `false`
+    /// makes the renderer create it anew, which is always correct but recompiles its pipelines.
+    fn scene_changed(
+        &mut self,
+        ctx: &GpuContext,
+        gpu_scene: &GpuScene,
+        change: SceneChange,
+    ) -> Result<bool, RenderError> {
+        let _ = (ctx, gpu_scene, change);
         Ok(false)
     }
 

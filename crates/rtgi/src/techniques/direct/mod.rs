@@ -135,27 +135,18 @@ impl Technique for Direct {
         ]))
     }
 
+    // Lights, shadow maps and the environment are read from the scene every frame.
+    fn scene_changed(
+        &mut self,
+        _: &crate::gpu::GpuContext,
+        _: &crate::gpu::GpuScene,
+        _: super::SceneChange,
+    ) -> Result<bool, RenderError> {
+        Ok(true)
+    }
+
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         self.0.render(fc, profiler)
-    }
-
-    // The environment (and its sampling table) is read from the scene every frame; it does not bounce in
-    // the RSM techniques.
-    fn environment_changed(
-        &mut self,
-        _: &crate::gpu::GpuContext,
-        _: &crate::gpu::GpuScene,
-    ) -> Result<bool, RenderError> {
-        Ok(true)
-    }
-
-    // Lights are read from the scene's light buffer and shadow maps every frame.
-    fn lights_moved(
-        &mut self,
-        _: &crate::gpu::GpuContext,
-        _: &crate::gpu::GpuScene,
-    ) -> Result<bool, RenderError> {
-        Ok(true)
     }
 }
 

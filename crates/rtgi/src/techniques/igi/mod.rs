@@ -650,22 +650,13 @@ fn shade_defines(variant: Variant, direct_raster: bool) -> Defines {
 }
 
 impl Technique for Igi {
-    // VPLs are generated from the scene's light buffer every frame; only a change of the lights' powers
-    // (which the entries' CDF holds) needs a new technique.
-    // VPLs are generated from the scene's light buffer and environment every frame; the light entries
-    // (which source a path starts from, by power) are rewritten in place.
-    fn lights_moved(
+    // VPLs are generated from the scene's lights and environment every frame; the light entries (which
+    // source a path starts from, by power) are rewritten in place.
+    fn scene_changed(
         &mut self,
         ctx: &GpuContext,
         gpu_scene: &crate::gpu::GpuScene,
-    ) -> Result<bool, RenderError> {
-        Ok(self.update_entries(ctx, gpu_scene))
-    }
-
-    fn environment_changed(
-        &mut self,
-        ctx: &GpuContext,
-        gpu_scene: &crate::gpu::GpuScene,
+        _: super::SceneChange,
     ) -> Result<bool, RenderError> {
         Ok(self.update_entries(ctx, gpu_scene))
     }

@@ -136,6 +136,16 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
 }
 
 impl Technique for PathTracer {
+    // Lights, shadow maps and the environment are read from the scene every frame.
+    fn scene_changed(
+        &mut self,
+        _: &crate::gpu::GpuContext,
+        _: &crate::gpu::GpuScene,
+        _: super::SceneChange,
+    ) -> Result<bool, RenderError> {
+        Ok(true)
+    }
+
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         profiler.pass(fc.ctx, PASS, |encoder| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -153,21 +163,6 @@ impl Technique for PathTracer {
         })?;
         self.samples += u64::from(fc.frame.width) * u64::from(fc.frame.height) * u64::from(self.spp);
         Ok(())
-    }
-
-    // The environment (and its sampling table) is read from the scene every frame; it does not bounce in
-    // the RSM techniques.
-    fn environment_changed(
-        &mut self,
-        _: &crate::gpu::GpuContext,
-        _: &crate::gpu::GpuScene,
-    ) -> Result<bool, RenderError> {
-        Ok(true)
-    }
-
-    // Lights are read from the scene's light buffer every frame.
-    fn lights_moved(&mut self, _: &GpuContext, _: &crate::gpu::GpuScene) -> Result<bool, RenderError> {
-        Ok(true)
     }
 
     fn counters(

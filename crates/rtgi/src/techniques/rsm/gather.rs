@@ -254,24 +254,15 @@ impl Gather {
 }
 
 impl Technique for Gather {
-    // The environment (and its sampling table) is read from the scene every frame; it does not bounce in
-    // the RSM techniques.
-    fn environment_changed(
-        &mut self,
-        _: &crate::gpu::GpuContext,
-        _: &crate::gpu::GpuScene,
-    ) -> Result<bool, RenderError> {
-        Ok(true)
-    }
-
-    // The direct term reads the scene's lights and shadow maps every frame; the RSMs re-aim and render
-    // again.
-    fn lights_moved(
+    // The direct term reads the scene's lights, shadow maps and environment every frame; the RSMs
+    // re-aim and render again when lights move (the environment does not bounce in RSM techniques).
+    fn scene_changed(
         &mut self,
         ctx: &GpuContext,
         gpu_scene: &crate::gpu::GpuScene,
+        change: crate::techniques::SceneChange,
     ) -> Result<bool, RenderError> {
-        self.rsm.lights_moved(ctx, gpu_scene);
+        self.rsm.scene_changed(ctx, gpu_scene, change);
         Ok(true)
     }
 

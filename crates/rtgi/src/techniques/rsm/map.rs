@@ -11,7 +11,7 @@ use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL};
 use crate::gpu::{GpuContext, GpuScene, Profiler};
 use crate::scene::Scene;
 use crate::shaders::{self, Defines};
-use crate::techniques::RenderError;
+use crate::techniques::{RenderError, SceneChange};
 
 pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -277,11 +277,15 @@ impl ReflectiveShadowMap {
         self.size * self.size * self.views.len() as u32
     }
 
-    /// Re-aims the views at the GPU scene's moved lights (same count and kinds); the maps render again
-    /// on the next [`Self::render`].
-    pub fn lights_moved(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene) {
-        if self.lights.len() != gpu_scene.lights.len() || gpu_scene.lights.is_empty() {
-            return;
+    /// Follows a change of the GPU scene: moved lights (same count and kinds) re-aim the views, and the
+    /// maps render again on the next [`Self::render`]; the environment does not bounce in RSMs. Returns
+    /// whether the maps will change.
+    pub fn scene_changed(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene, change: SceneChange) -> bool {
+        if change != SceneChange::Lights
+            || self.lights.len() != gpu_scene.lights.len()
+            || gpu_scene.lights.is_empty()
+        {
+            return false;
         }
         let views = rsm_views(&gpu_scene.lights, scene_bounds(gpu_scene), self.size);
         if !views.is_empty() {
@@ -292,6 +296,7 @@ impl ReflectiveShadowMap {
         self.lights = gpu_scene.lights.clone();
         self.views = views;
         self.rendered = None;
+        true
     }
 
     /// Renders the maps as the pass "rsm" when the lights or the geometry changed since the last time.
