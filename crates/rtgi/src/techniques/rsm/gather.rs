@@ -290,13 +290,7 @@ impl Technique for Gather {
         c.insert("rsm_layers".into(), self.rsm.views.len() as f64);
         c.insert("rsm_bytes".into(), f64::from(self.rsm.texels() * map::BYTES_PER_TEXEL));
         // One sampling disc per light, six for a point light's cube faces.
-        let discs: u32 = self
-            .rsm
-            .lights
-            .iter()
-            .filter(|l| l.shadow_layer >= 0)
-            .map(|l| if l.kind == crate::gpu::scene::LIGHT_POINT { 6 } else { 1 })
-            .sum();
+        let discs = self.rsm.light_discs;
         let per_pixel = if self.brute_force { self.rsm.texels() } else { self.samples_per_pixel * discs };
         c.insert("samples_per_pixel".into(), f64::from(per_pixel));
         c.insert("sample_subsets".into(), f64::from(self.layout.subsets()));

@@ -25,8 +25,8 @@ fn gather_sampled(s: GSurface, subset: u32) -> vec3f {
     var sum = vec3f(0.0);
     let first = subset * SAMPLES_PER_SUBSET + chunk.first;
     let last = first + chunk.count;
-    for (var l = 0u; l < arrayLength(&rsm_lights); l++) {
-        let light = rsm_lights[l];
+    for (var l = 0u; l < scene_info.light_count; l++) {
+        let light = lights[l];
         if light.shadow_layer < 0 {
             continue;
         }

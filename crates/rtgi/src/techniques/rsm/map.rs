@@ -46,8 +46,8 @@ pub fn reader_source(body: &str) -> String {
 /// The reflective shadow maps of a scene's analytic lights.
 pub struct ReflectiveShadowMap {
     pub size: u32,
-    /// Scene lights with `shadow_layer` set to their first RSM layer (-1 for none).
-    pub lights: Vec<GpuLight>,
+    /// Sampling discs of a gather: one per spot or directional light, six per point light (its cube).
+    pub light_discs: u32,
     pub views: Vec<RsmView>,
     pub position: wgpu::Texture,
     pub normal: wgpu::Texture,
@@ -56,7 +56,6 @@ pub struct ReflectiveShadowMap {
     pipeline: Option<wgpu::RenderPipeline>,
     view_slots: frame::ViewSlots,
     views_buffer: wgpu::Buffer,
-    lights_buffer: wgpu::Buffer,
     /// Bind group 3 of the shaders built with [`reader_source`].
     pub layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
@@ -131,7 +130,7 @@ fn read_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
     };
     ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("rsm read"),
-        entries: &[tex(0), tex(1), tex(2), buf(3), buf(4)],
+        entries: &[tex(0), tex(1), tex(2), buf(3)],
     })
 }
 
@@ -216,16 +215,6 @@ impl ReflectiveShadowMap {
             contents: bytemuck::cast_slice(&view_data),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
-        let light_data: Vec<GpuLight> = if lights.is_empty() {
-            vec![GpuLight { shadow_layer: -1, ..GpuLight::zeroed() }]
-        } else {
-            lights.clone()
-        };
-        let lights_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rsm lights"),
-            contents: bytemuck::cast_slice(&light_data),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        });
         let layout = read_layout(ctx);
         let array_view = |t: &wgpu::Texture| {
             t.create_view(&wgpu::TextureViewDescriptor {
@@ -250,12 +239,11 @@ impl ReflectiveShadowMap {
                     resource: wgpu::BindingResource::TextureView(&array_view(&intensity)),
                 },
                 wgpu::BindGroupEntry { binding: 3, resource: views_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: lights_buffer.as_entire_binding() },
             ],
         });
         Ok(ReflectiveShadowMap {
             size,
-            lights: light_data,
+            light_discs: lights.iter().map(|l| crate::gpu::scene::shadow_layer_count(l.kind) as u32).sum(),
             views,
             position,
             normal,
@@ -264,7 +252,6 @@ impl ReflectiveShadowMap {
             pipeline,
             view_slots,
             views_buffer,
-            lights_buffer,
             layout,
             bind_group,
             warnings,
@@ -281,10 +268,8 @@ impl ReflectiveShadowMap {
     /// maps render again on the next [`Self::render`]; the environment does not bounce in RSMs. Returns
     /// whether the maps will change.
     pub fn scene_changed(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene, change: SceneChange) -> bool {
-        if change != SceneChange::Lights
-            || self.lights.len() != gpu_scene.lights.len()
-            || gpu_scene.lights.is_empty()
-        {
+        // The GPU scene keeps the count and kinds of its lights, so the views keep their layers.
+        if change != SceneChange::Lights || gpu_scene.lights.is_empty() {
             return false;
         }
         let views = rsm_views(&gpu_scene.lights, scene_bounds(gpu_scene), self.size);
@@ -292,8 +277,6 @@ impl ReflectiveShadowMap {
             ctx.queue.write_buffer(&self.views_buffer, 0, bytemuck::cast_slice(&views));
             self.view_slots.write(ctx, &views);
         }
-        ctx.queue.write_buffer(&self.lights_buffer, 0, bytemuck::cast_slice(&gpu_scene.lights));
-        self.lights = gpu_scene.lights.clone();
         self.views = views;
         self.rendered = None;
         true

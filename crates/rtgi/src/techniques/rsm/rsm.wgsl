@@ -11,8 +11,8 @@
 // Reflected radiant intensity along the normal, I_p = Φ_p / π (the paper's Φ_p folds in the 1/π).
 @group(3) @binding(2) var rsm_intensity: texture_2d_array<f32>;
 @group(3) @binding(3) var<storage, read> rsm_views: array<RsmView>;
-// The scene's analytic lights with `shadow_layer` set to their first RSM layer (-1: none).
-@group(3) @binding(4) var<storage, read> rsm_lights: array<Light>;
+// A light's first RSM layer is its `shadow_layer` in the scene's `lights` (group 0): RSMs and shadow maps
+// number their per-light views alike.
 
 // One RSM texel as a pixel light.
 struct PixelLight {

@@ -1,7 +1,7 @@
 // One RSM layer's view (layout: `RsmView` in map.rs).
 struct RsmView {
     view_proj: mat4x4f,
-    // Index of the light in `rsm_lights`.
+    // Index of the light in the scene's `lights`.
     light: u32,
     orthographic: u32,
     // World size of a texel at unit distance (perspective) or absolute (orthographic).
