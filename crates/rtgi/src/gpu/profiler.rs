@@ -131,7 +131,18 @@ const MAX_QUERIES: u32 = 256;
 struct Timestamps {
     queries: wgpu::QuerySet,
     resolve: wgpu::Buffer,
+    /// The resolved values are copied here in the same submission as the passes, so reading them
+    /// costs a map, not another submission and buffer per frame.
+    readback: wgpu::Buffer,
     period_ns: f64,
+}
+
+impl Timestamps {
+    /// Resolves the first `pairs` timestamp pairs and copies them to the readback buffer.
+    fn record_resolve(&self, encoder: &mut wgpu::CommandEncoder, pairs: u32) {
+        encoder.resolve_query_set(&self.queries, 0..2 * pairs, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, u64::from(pairs) * 16);
+    }
 }
 
 /// Records named passes of a frame and accumulates their times.
@@ -163,6 +174,12 @@ impl Profiler {
                 label: Some("timestamp resolve"),
                 size: u64::from(MAX_QUERIES) * 8,
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            readback: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamp readback"),
+                size: u64::from(MAX_QUERIES) * 8,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
             period_ns: f64::from(ctx.queue.get_timestamp_period()),
@@ -231,7 +248,7 @@ impl Profiler {
         let result = record(&mut encoder);
         if let Some(ts) = &self.timestamps {
             encoder.write_timestamp(&ts.queries, 1);
-            encoder.resolve_query_set(&ts.queries, 0..2, &ts.resolve, 0);
+            ts.record_resolve(&mut encoder, 1);
         }
         let start = Instant::now();
         ctx.queue.submit([encoder.finish()]);
@@ -248,7 +265,7 @@ impl Profiler {
         if let Some(mut encoder) = self.encoder.take() {
             let timed = (passes.len() as u32).min(MAX_QUERIES / 2);
             if let (Some(ts), true) = (&self.timestamps, timed > 0) {
-                encoder.resolve_query_set(&ts.queries, 0..2 * timed, &ts.resolve, 0);
+                ts.record_resolve(&mut encoder, timed);
             }
             ctx.queue.submit([encoder.finish()]);
             ctx.wait_idle()?;
@@ -281,8 +298,8 @@ impl Profiler {
         if count == 0 {
             return Ok(Vec::new());
         }
-        let bytes = super::readback::read_buffer(ctx, &ts.resolve, 0, u64::from(count) * 16)?;
-        let t: &[u64] = bytemuck::cast_slice(&bytes);
+        let bytes = super::readback::map_and_copy(ctx, &ts.readback)?;
+        let t: &[u64] = bytemuck::cast_slice(&bytes[..count as usize * 16]);
         Ok(t.chunks_exact(2).map(|p| p[1].saturating_sub(p[0]) as f64 * ts.period_ns * 1e-6).collect())
     }
 

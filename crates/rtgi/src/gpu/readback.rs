@@ -21,7 +21,8 @@ pub fn read_buffer(
     map_and_copy(ctx, &staging)
 }
 
-fn map_and_copy(ctx: &GpuContext, staging: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+/// Maps a `MAP_READ` buffer whose copies were submitted, waits for the device and copies it out.
+pub(crate) fn map_and_copy(ctx: &GpuContext, staging: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
     let slice = staging.slice(..);
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
