@@ -30,7 +30,7 @@ use crate::gpu::{
 };
 use crate::image::HdrImage;
 use crate::params::ParamValues;
-use crate::scene::{Aabb, Camera, Scene};
+use crate::scene::{Camera, Environment, Scene};
 use crate::techniques::{
     self, FrameContext, Measured, RenderError, SceneChange, Technique, TechniqueInfo, TechniqueSetup,
 };
@@ -188,10 +188,9 @@ fn output_texture(ctx: &GpuContext, width: u32, height: u32) -> Result<wgpu::Tex
         .build(ctx)
 }
 
-/// The state the scene is shown in: the posed scene (world space at the current time) and its bounds.
+/// The state the scene is shown in: the posed scene (world space at the current time).
 struct Posed {
     scene: Scene,
-    bounds: Aabb,
     /// Per mesh, the transform of the uploaded geometry (identity for a static scene).
     mesh_transforms: Vec<Mat4>,
 }
@@ -382,20 +381,28 @@ impl Renderer {
         if !self.source.is_animated() {
             return Ok(());
         }
-        let posed = pose(&self.source, t);
-        if !self.camera_override && posed.scene.camera != self.camera {
-            self.camera = posed.scene.camera;
+        let pose = self.source.pose_at(t);
+        if !self.camera_override && pose.camera != self.camera {
+            self.camera = pose.camera;
             self.restart_accumulation();
         }
-        let geometry_moved = posed.mesh_transforms != self.posed.mesh_transforms;
-        let environment_changed = posed.scene.environment != self.posed.scene.environment;
-        let lights_moved = posed.scene.lights != self.posed.scene.lights;
-        self.posed = posed;
-        if geometry_moved {
+        if pose.mesh_transforms != self.posed.mesh_transforms {
             // Until rigid objects become BVH instances, moved geometry means a new upload.
+            let mesh_transforms = pose.mesh_transforms.clone();
+            self.posed = Posed { scene: self.source.posed_with(pose), mesh_transforms };
             self.restart_accumulation();
             return self.rebuild_scene();
         }
+        // The meshes stay where they are: only lights, camera and sky change in the posed scene.
+        // Posing changes the environment only through a sky's sun; comparing that avoids copying a map.
+        let sun = |e: &Environment| match e {
+            Environment::Sky { sun_direction, .. } => Some(*sun_direction),
+            _ => None,
+        };
+        let sun_before = sun(&self.posed.scene.environment);
+        let lights_moved = pose.lights != self.posed.scene.lights;
+        self.posed.scene.place_lights_and_camera(pose);
+        let environment_changed = sun(&self.posed.scene.environment) != sun_before;
         let ctx = self.ctx.clone();
         if environment_changed {
             self.restart_accumulation();
@@ -418,7 +425,7 @@ impl Renderer {
             self.restart_accumulation();
             ctx.checked("moving the lights", || -> Result<(), RenderError> {
                 self.gpu_scene.update_lights(&ctx, &self.posed.scene.lights)?;
-                self.frame.update_shadow_views(&ctx, &self.gpu_scene, self.posed.bounds);
+                self.frame.update_shadow_views(&ctx, &self.gpu_scene);
                 if self.technique.scene_changed(&ctx, &self.gpu_scene, SceneChange::Lights)? {
                     self.counters.light_updates += 1;
                     Ok(())
@@ -738,17 +745,13 @@ fn create_technique(
 /// The scene posed at `t`: a static scene as it is.
 fn pose(scene: &Scene, t: f32) -> Posed {
     if scene.is_animated() {
-        let transforms = scene.pose_at(t).mesh_transforms;
-        let posed = scene.posed(t);
-        Posed { bounds: posed.bounds(), scene: posed, mesh_transforms: transforms }
+        let pose = scene.pose_at(t);
+        let mesh_transforms = pose.mesh_transforms.clone();
+        Posed { scene: scene.posed_with(pose), mesh_transforms }
     } else {
         let mut still = scene.clone();
         still.animation = None;
-        Posed {
-            bounds: scene.bounds(),
-            mesh_transforms: vec![Mat4::IDENTITY; scene.meshes.len()],
-            scene: still,
-        }
+        Posed { mesh_transforms: vec![Mat4::IDENTITY; scene.meshes.len()], scene: still }
     }
 }
 

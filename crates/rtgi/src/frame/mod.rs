@@ -215,7 +215,8 @@ pub struct FrameResources {
     pub bind_group: wgpu::BindGroup,
     camera_buffer: wgpu::Buffer,
     mesh_motion: wgpu::Buffer,
-    mesh_count: usize,
+    /// What `mesh_motion` holds, so a static scene writes it once, not every frame.
+    mesh_motion_written: Vec<Mat4>,
     camera_bind_group: wgpu::BindGroup,
     gbuffer_pipeline: wgpu::RenderPipeline,
     shadow_maps: wgpu::Texture,
@@ -563,7 +564,7 @@ impl FrameResources {
             normal_offset: 0.0,
         });
         let views = if shadows.is_some() {
-            shadow_views(&gpu_scene.lights, scene.bounds(), settings.size)
+            shadow_views(&gpu_scene.lights, gpu_scene.bounds(), settings.size)
         } else {
             Vec::new()
         };
@@ -794,7 +795,7 @@ impl FrameResources {
             bind_group,
             camera_buffer,
             mesh_motion,
-            mesh_count: gpu_scene.mesh_ranges.len(),
+            mesh_motion_written: vec![Mat4::IDENTITY; gpu_scene.mesh_ranges.len()],
             camera_bind_group,
             gbuffer_pipeline,
             shadow_maps,
@@ -824,15 +825,16 @@ impl FrameResources {
         ctx: &GpuContext,
         previous_from_current: &[Mat4],
     ) -> Result<(), GpuError> {
-        if previous_from_current.len() != self.mesh_count {
+        if previous_from_current.len() != self.mesh_motion_written.len() {
             return Err(GpuError::Other(format!(
                 "{} mesh motions for {} meshes",
                 previous_from_current.len(),
-                self.mesh_count
+                self.mesh_motion_written.len()
             )));
         }
-        if !previous_from_current.is_empty() {
+        if previous_from_current != self.mesh_motion_written.as_slice() {
             ctx.queue.write_buffer(&self.mesh_motion, 0, bytemuck::cast_slice(previous_from_current));
+            self.mesh_motion_written = previous_from_current.to_vec();
         }
         Ok(())
     }
@@ -856,11 +858,11 @@ impl FrameResources {
         Ok(())
     }
 
-    /// Re-aims the shadow views at the lights of `gpu_scene` framing `bounds` (after lights or geometry
-    /// moved); the maps re-render on the next [`Self::render_inputs`].
-    pub fn update_shadow_views(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene, bounds: Aabb) {
+    /// Re-aims the shadow views at the lights of `gpu_scene` (after they moved); the maps re-render on
+    /// the next [`Self::render_inputs`].
+    pub fn update_shadow_views(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene) {
         let Some(settings) = self.shadow_settings else { return };
-        let views = shadow_views(&gpu_scene.lights, bounds, settings.size);
+        let views = shadow_views(&gpu_scene.lights, gpu_scene.bounds(), settings.size);
         if views.is_empty() {
             return;
         }

@@ -932,6 +932,11 @@ impl GpuScene {
         Ok(true)
     }
 
+    /// The scene bounds the upload was made with (what shadow maps and RSMs frame).
+    pub fn bounds(&self) -> crate::scene::Aabb {
+        crate::scene::Aabb { min: self.info.bounds_min.into(), max: self.info.bounds_max.into() }
+    }
+
     /// Moves the analytic lights: `lights` must be the scene's lights posed anew (same count and kinds,
     /// so shadow layers and buffer sizes stay). Rewrites the light buffer only when something changed.
     pub fn update_lights(&mut self, ctx: &GpuContext, lights: &[Light]) -> Result<bool, GpuError> {

@@ -485,28 +485,41 @@ impl Scene {
     /// A static world-space copy of the scene at time `t`: meshes, lights, camera and sky sun posed,
     /// no animation.
     pub fn posed(&self, t: f32) -> Scene {
-        let pose = self.pose_at(t);
+        self.posed_with(self.pose_at(t))
+    }
+
+    /// [`Scene::posed`] for a pose already computed with [`Scene::pose_at`].
+    pub fn posed_with(&self, pose: Pose) -> Scene {
         let meshes = self
             .meshes
             .iter()
             .zip(&pose.mesh_transforms)
             .map(|(m, &xf)| if xf == Mat4::IDENTITY { m.clone() } else { m.transformed(xf) })
             .collect();
-        let mut environment = self.environment.clone();
-        if let (Environment::Sky { sun_direction, .. }, Some(sun)) = (&mut environment, pose.environment_sun)
-        {
-            *sun_direction = sun;
-        }
-        Scene {
+        let mut posed = Scene {
             meshes,
-            lights: pose.lights,
-            camera: pose.camera,
-            environment,
+            lights: Vec::new(),
+            camera: self.camera,
+            environment: self.environment.clone(),
             animation: None,
             name: self.name.clone(),
             materials: self.materials.clone(),
             textures: self.textures.clone(),
             warnings: self.warnings.clone(),
+        };
+        posed.place_lights_and_camera(pose);
+        posed
+    }
+
+    /// Sets the lights, camera and sky sun of a posed scene to `pose`'s, leaving the geometry as it is:
+    /// a pose whose meshes did not move needs nothing else (no copy of the meshes).
+    pub fn place_lights_and_camera(&mut self, pose: Pose) {
+        self.lights = pose.lights;
+        self.camera = pose.camera;
+        if let (Environment::Sky { sun_direction, .. }, Some(sun)) =
+            (&mut self.environment, pose.environment_sun)
+        {
+            *sun_direction = sun;
         }
     }
 

@@ -84,11 +84,6 @@ fn rsm_views(lights: &[GpuLight], bounds: crate::scene::Aabb, size: u32) -> Vec<
     views
 }
 
-/// The bounds the GPU scene was uploaded with (what the views frame).
-fn scene_bounds(gpu_scene: &GpuScene) -> crate::scene::Aabb {
-    crate::scene::Aabb { min: gpu_scene.info.bounds_min.into(), max: gpu_scene.info.bounds_max.into() }
-}
-
 fn array_texture(
     ctx: &GpuContext,
     label: &str,
@@ -150,7 +145,7 @@ impl ReflectiveShadowMap {
             )));
         }
         let lights = &gpu_scene.lights;
-        let views = rsm_views(lights, scene_bounds(gpu_scene), size);
+        let views = rsm_views(lights, gpu_scene.bounds(), size);
         let mut warnings = Vec::new();
         if gpu_scene.info.emissive_count > 0 {
             warnings.push(
@@ -272,7 +267,7 @@ impl ReflectiveShadowMap {
         if change != SceneChange::Lights || gpu_scene.lights.is_empty() {
             return false;
         }
-        let views = rsm_views(&gpu_scene.lights, scene_bounds(gpu_scene), self.size);
+        let views = rsm_views(&gpu_scene.lights, gpu_scene.bounds(), self.size);
         if !views.is_empty() {
             ctx.queue.write_buffer(&self.views_buffer, 0, bytemuck::cast_slice(&views));
             self.view_slots.write(ctx, &views);
