@@ -29,6 +29,13 @@ def sh(*args):
     return subprocess.run([str(a) for a in args], check=True, capture_output=True, text=True).stdout
 
 
+def commit():
+    """The commit the figures come from, marked when the tree had uncommitted changes."""
+    head = sh("git", "rev-parse", "--short", "HEAD").strip()
+    dirty = sh("git", "status", "--porcelain", "--untracked-files=no").strip()
+    return head + (" (with uncommitted changes)" if dirty else "")
+
+
 def reference(name, scene, spp, *settings, size=SIZE):
     path = REFS / f"{name}.exr"
     if not path.exists():
@@ -70,7 +77,8 @@ def main():
     lines = ["# igi and igi-sh: measurements", "",
              f"Reproduce with `python3 scripts/measure-igi.py` (renders {SIZE}, one frame each: fully "
              "dynamic, nothing carried between frames). References: `path`, full GI (cornell 1024 spp, bumpy-glossy 512 spp). "
-             f"Adapter: {render('probe', 'cornell', 'igi', 'vpls=64')[1]['adapter']['name']}.", "",
+             f"Adapter: {render('probe', 'cornell', 'igi', 'vpls=64')[1]['adapter']['name']}. "
+             f"Commit: {commit()}.", "",
              "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are lavapipe wall times of the frames after the first (which includes lazy shader compilation); compare passes with each other, not with GPU figures. The closing note of issue 4 and the README read these tables.", ""]
 
     # 1. Convergence on cornell.

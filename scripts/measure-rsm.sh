@@ -21,6 +21,14 @@ mkdir -p "$OUT"
 SECTIONS=${*:-errors pointlights timing tworooms}
 FRAMES=${FRAMES:-4}
 
+# Provenance of every table below: the command, the commit and the adapter.
+commit=$(git rev-parse --short HEAD)
+[[ -n "$(git status --porcelain --untracked-files=no)" ]] && commit+=" (with uncommitted changes)"
+adapter=$("$RTGI" render --scene cornell-spot --technique direct --size 8x8 --out "$OUT/probe.exr" \
+    --stats "$OUT/probe.json" >/dev/null 2>&1 && python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["adapter"]["name"])' "$OUT/probe.json")
+echo "Printed by \`scripts/measure-rsm.sh $SECTIONS\` at commit $commit on $adapter."
+echo
+
 ref() { # name scene bounces: $REF_DIR/name.exr, else rendered once into $OUT/refs
     local f="$REF_DIR/$1.exr"
     [[ -f "$f" ]] && { echo "$f"; return; }
