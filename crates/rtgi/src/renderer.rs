@@ -23,7 +23,7 @@ use std::time::Instant;
 use glam::Mat4;
 use serde::Serialize;
 
-use crate::frame::{FrameResources, FrameView, OUTPUT_FORMAT, ShadowSettings};
+use crate::frame::{FRAME_UNIFORM_PARAMS, FrameResources, FrameView, OUTPUT_FORMAT, ShadowSettings};
 use crate::gpu::{
     AdapterSummary, GpuContext, GpuError, GpuScene, MemoryReport, PassTiming, Profiler, TimeSummary,
     TimingMode, readback,
@@ -147,9 +147,6 @@ impl std::str::FromStr for Aov {
     }
 }
 
-/// Technique parameters that feed only the frame uniforms: changing them rebuilds nothing.
-const UNIFORM_ONLY_PARAMS: [&str; 4] = ["seed", "shadow_filter", "shadow_bias", "shadow_normal_offset"];
-
 fn resolve(
     name: &str,
     settings: &[(String, String)],
@@ -208,7 +205,6 @@ pub struct Renderer {
     params: ParamValues,
     technique: Box<dyn Technique>,
     profiler: Profiler,
-    seed: u32,
     time: f32,
     previous_time: Option<f32>,
     camera: Camera,
@@ -222,8 +218,6 @@ pub struct Renderer {
     previous_mesh_transforms: Option<Vec<Mat4>>,
     shader_compilations_at_start: u64,
     setup_ms: f64,
-    frames_wall_ms: f64,
-    frames: u32,
     memory: Vec<MemorySample>,
 }
 
@@ -259,7 +253,6 @@ impl Renderer {
             frame,
             output,
             info,
-            seed: seed_of(&params),
             params,
             technique,
             profiler: Profiler::new(ctx, settings.timing),
@@ -281,8 +274,6 @@ impl Renderer {
             previous_mesh_transforms: None,
             shader_compilations_at_start,
             setup_ms: 0.0,
-            frames_wall_ms: 0.0,
-            frames: 0,
             memory: Vec::new(),
         };
         renderer.setup_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -356,16 +347,17 @@ impl Renderer {
     /// Views the scene from `camera` from now on (overriding the scene's camera and its animation).
     pub fn set_camera(&mut self, camera: Camera) {
         self.camera_override = true;
-        if camera != self.camera {
-            self.camera = camera;
-            self.restart_accumulation();
-        }
+        self.look_through(camera);
     }
 
     /// Goes back to the scene's own (possibly animated) camera.
     pub fn use_scene_camera(&mut self) {
         self.camera_override = false;
-        let camera = self.posed.scene.camera;
+        self.look_through(self.posed.scene.camera);
+    }
+
+    /// Renders the next frames from `camera`; a move restarts accumulation (and is not a cut).
+    fn look_through(&mut self, camera: Camera) {
         if camera != self.camera {
             self.camera = camera;
             self.restart_accumulation();
@@ -382,9 +374,8 @@ impl Renderer {
             return Ok(());
         }
         let pose = self.source.pose_at(t);
-        if !self.camera_override && pose.camera != self.camera {
-            self.camera = pose.camera;
-            self.restart_accumulation();
+        if !self.camera_override {
+            self.look_through(pose.camera);
         }
         if pose.mesh_transforms != self.posed.mesh_transforms {
             // Until rigid objects become BVH instances, moved geometry means a new upload.
@@ -447,9 +438,8 @@ impl Renderer {
             return Ok(());
         }
         let structural =
-            new.iter().any(|(k, v)| old.get(k) != Some(v) && !UNIFORM_ONLY_PARAMS.contains(&k.as_str()));
+            new.iter().any(|(k, v)| old.get(k) != Some(v) && !FRAME_UNIFORM_PARAMS.contains(&k.as_str()));
         self.params = params;
-        self.seed = seed_of(&self.params);
         self.cut();
         if structural {
             return self.rebuild_technique();
@@ -465,13 +455,10 @@ impl Renderer {
         let (info, params) = resolve(name, settings)?;
         self.info = info;
         self.params = params;
-        self.seed = seed_of(&self.params);
         self.cut();
         // Timings and counters are per technique.
         self.profiler.reset();
         self.memory.clear();
-        self.frames = 0;
-        self.frames_wall_ms = 0.0;
         self.rebuild_technique()
     }
 
@@ -596,9 +583,8 @@ impl Renderer {
     pub fn step(&mut self) -> Result<(), RenderError> {
         let view = self.next_view();
         let ctx = self.ctx.clone();
-        let start = Instant::now();
         ctx.checked("rendering", || -> Result<(), RenderError> {
-            self.frame.set_view(&ctx, &view, self.seed);
+            self.frame.set_view(&ctx, &view, seed_of(&self.params));
             self.frame.set_mesh_motion(&ctx, &self.mesh_motion())?;
             self.profiler.begin_frame(&ctx);
             if self.info.needs.gbuffer {
@@ -609,14 +595,13 @@ impl Renderer {
             self.profiler.end_frame(&ctx)?;
             Ok(())
         })??;
-        self.frames_wall_ms += start.elapsed().as_secs_f64() * 1e3;
-        self.frames += 1;
-        let mut decade = self.frames;
+        let frames = self.profiler.frames();
+        let mut decade = frames;
         while decade.is_multiple_of(10) {
             decade /= 10;
         }
         if decade == 1 {
-            self.memory.push(MemorySample { frames: self.frames, report: self.ctx.memory_report() });
+            self.memory.push(MemorySample { frames, report: self.ctx.memory_report() });
         }
         self.previous_view_proj = Some(view.view_proj);
         self.previous_mesh_transforms = Some(self.posed.mesh_transforms.clone());
@@ -636,10 +621,10 @@ impl Renderer {
     /// A G-buffer channel of the current view, rendered now if the technique does not use the G-buffer.
     pub fn read_aov(&mut self, aov: Aov) -> Result<HdrImage, RenderError> {
         let ctx = self.ctx.clone();
-        if !self.info.needs.gbuffer || self.frames == 0 {
+        if !self.info.needs.gbuffer || self.profiler.frames() == 0 {
             let view = self.next_view();
             ctx.checked("rendering the G-buffer", || -> Result<(), RenderError> {
-                self.frame.set_view(&ctx, &view, self.seed);
+                self.frame.set_view(&ctx, &view, seed_of(&self.params));
                 self.frame.set_mesh_motion(&ctx, &self.mesh_motion())?;
                 let mut profiler = Profiler::new(&ctx, TimingMode::Passes);
                 self.frame.render_inputs(&ctx, &self.gpu_scene, &mut profiler)?;
@@ -690,15 +675,16 @@ impl Renderer {
     /// Statistics of the frames since creation (or since the last technique change).
     pub fn stats(&mut self) -> Result<RenderStats, RenderError> {
         let passes = self.profiler.timings();
-        let measured = Measured { passes: &passes, frames_wall_ms: self.frames_wall_ms };
+        let frames = self.profiler.frames();
+        let measured = Measured { passes: &passes, frames_wall_ms: self.profiler.wall_ms() };
         let counters = self.technique.counters(&self.ctx, &measured)?;
         let timestamps = match self.profiler.timestamp_status() {
             Ok(()) => "reliable".to_string(),
             Err(why) => why,
         };
         let mut memory = self.memory.clone();
-        if memory.last().is_none_or(|m| m.frames != self.frames) {
-            memory.push(MemorySample { frames: self.frames, report: self.ctx.memory_report() });
+        if memory.last().is_none_or(|m| m.frames != frames) {
+            memory.push(MemorySample { frames, report: self.ctx.memory_report() });
         }
         let mut warnings: Vec<String> = self.gpu_scene.warnings.clone();
         warnings.extend(self.technique.warnings());
@@ -707,9 +693,9 @@ impl Renderer {
             technique: self.info.name.to_string(),
             width: self.frame.width,
             height: self.frame.height,
-            frames: self.frames,
+            frames,
             adapter: self.ctx.summary.clone(),
-            wall_ms: self.frames_wall_ms,
+            wall_ms: self.profiler.wall_ms(),
             setup_ms: self.setup_ms,
             timing: self.profiler.mode(),
             timestamps,

@@ -148,6 +148,11 @@ pub const SHADOW_PARAMS: [ParamSpec; 4] = [
     },
 ];
 
+/// Technique parameters that feed only [`FrameUniforms`] (the random seed and the shadow filter, bias
+/// and offset): changing them between frames rebuilds nothing.
+pub const FRAME_UNIFORM_PARAMS: [&str; 4] =
+    ["seed", SHADOW_PARAMS[1].name, SHADOW_PARAMS[2].name, SHADOW_PARAMS[3].name];
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShadowSettings {
     pub size: u32,

@@ -343,6 +343,11 @@ impl Profiler {
         Ok(())
     }
 
+    /// Wall time of all frames ended so far, submission of the first pass to completion of the last.
+    pub fn wall_ms(&self) -> f64 {
+        self.wall_total
+    }
+
     /// Frames ended so far.
     pub fn frames(&self) -> u32 {
         self.frames
