@@ -2,17 +2,10 @@
 // common/frame.wgsl.
 
 #import common/raster.wgsl
+#import common/frame_uniforms.wgsl
 
-struct Camera {
-    view_proj: mat4x4f,
-    prev_view_proj: mat4x4f,
-    position: vec3f,
-    _pad: f32,
-    size: vec2f,
-    _pad2: vec2f,
-}
-
-@group(1) @binding(0) var<uniform> camera: Camera;
+// The frame's uniforms, bound alone: the rest of the frame bind group is the G-buffer being drawn.
+@group(1) @binding(0) var<uniform> frame: FrameUniforms;
 // Per mesh: current world position -> the previous frame's (object motion; identity when static).
 @group(1) @binding(1) var<storage, read> mesh_motion: array<mat4x4f>;
 
@@ -39,9 +32,9 @@ fn vs_main(
     @location(4) uv: vec2f,
     @builtin(instance_index) mesh: u32,
 ) -> GBufferVertexOut {
-    let v = scene_vertex(camera.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
+    let v = scene_vertex(frame.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
     var out = GBufferVertexOut(v.clip, v.world, v.normal, v.tangent, v.uv, v.material, vec4f(0.0), 0u);
-    out.prev_clip = camera.prev_view_proj * (mesh_motion[mesh] * vec4f(position, 1.0));
+    out.prev_clip = frame.prev_view_proj * (mesh_motion[mesh] * vec4f(position, 1.0));
     out.mesh = mesh;
     return out;
 }
@@ -67,7 +60,7 @@ fn texture_lod(uv: vec2f) -> f32 {
 // Framebuffer coordinates (pixels, y down) of a clip-space position.
 fn clip_to_pixel(clip: vec4f) -> vec2f {
     let ndc = clip.xy / clip.w;
-    return vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * camera.size;
+    return vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * vec2f(frame.size);
 }
 
 @fragment
@@ -79,7 +72,7 @@ fn fs_main(vertex: GBufferVertexOut) -> GBufferOut {
     if m.alpha_cutoff >= 0.0 && s.alpha < m.alpha_cutoff {
         discard;
     }
-    let to_camera = camera.position - in.world;
+    let to_camera = frame.camera_position - in.world;
     let normals = fragment_normals(in, m, to_camera, lod);
     var out: GBufferOut;
     out.albedo = vec4f(s.base_color, s.metallic);

@@ -95,31 +95,6 @@ pub struct ShadowView {
     pub params: [f32; 4],
 }
 
-/// The G-buffer pass's camera (`Camera` in `gbuffer.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub(crate) struct CameraUniforms {
-    pub view_proj: [[f32; 4]; 4],
-    pub prev_view_proj: [[f32; 4]; 4],
-    pub position: [f32; 3],
-    pub _pad: f32,
-    pub size: [f32; 2],
-    pub _pad2: [f32; 2],
-}
-
-impl CameraUniforms {
-    fn of(view: &FrameView, width: u32, height: u32) -> Self {
-        CameraUniforms {
-            view_proj: view.view_proj.to_cols_array_2d(),
-            prev_view_proj: view.prev_view_proj.to_cols_array_2d(),
-            position: view.camera.position.into(),
-            _pad: 0.0,
-            size: [width as f32, height as f32],
-            _pad2: [0.0; 2],
-        }
-    }
-}
-
 /// Shadow-map parameters, shared by every technique that uses shadow maps.
 pub const SHADOW_PARAMS: [ParamSpec; 4] = [
     ParamSpec {
@@ -218,11 +193,10 @@ pub struct FrameResources {
     pub shadow_settings: Option<ShadowSettings>,
     pub bind_group_layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
-    camera_buffer: wgpu::Buffer,
     mesh_motion: wgpu::Buffer,
     /// What `mesh_motion` holds, so a static scene writes it once, not every frame.
     mesh_motion_written: Vec<Mat4>,
-    camera_bind_group: wgpu::BindGroup,
+    gbuffer_bind_group: wgpu::BindGroup,
     gbuffer_pipeline: wgpu::RenderPipeline,
     shadow_maps: wgpu::Texture,
     shadow_view_buffer: wgpu::Buffer,
@@ -698,20 +672,14 @@ impl FrameResources {
         });
 
         // G-buffer pipeline.
-        let camera = CameraUniforms::of(&view, width, height);
-        let camera_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("camera"),
-            contents: bytemuck::bytes_of(&camera),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
         // Per mesh, the matrix from its current world position to the previous frame's (object motion).
         let mesh_motion = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("mesh motion"),
             contents: bytemuck::cast_slice(&vec![Mat4::IDENTITY; gpu_scene.mesh_ranges.len().max(1)]),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
-        let camera_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("gbuffer camera"),
+        let gbuffer_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gbuffer frame"),
             entries: &[
                 wgpu::BindGroupLayoutEntry {
                     binding: 0,
@@ -735,11 +703,12 @@ impl FrameResources {
                 },
             ],
         });
-        let camera_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("camera"),
-            layout: &camera_layout,
+        // The frame uniforms (the same buffer as bind group 1 of techniques) and the mesh motion.
+        let gbuffer_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("gbuffer frame"),
+            layout: &gbuffer_group_layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: camera_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 0, resource: uniform_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: mesh_motion.as_entire_binding() },
             ],
         });
@@ -748,7 +717,7 @@ impl FrameResources {
                 .map_err(|e| GpuError::Other(e.to_string()))?;
         let gbuffer_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("gbuffer"),
-            bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&camera_layout)],
+            bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&gbuffer_group_layout)],
             immediate_size: 0,
         });
         let color =
@@ -798,10 +767,9 @@ impl FrameResources {
             shadow_settings: shadows,
             bind_group_layout,
             bind_group,
-            camera_buffer,
             mesh_motion,
             mesh_motion_written: vec![Mat4::IDENTITY; gpu_scene.mesh_ranges.len()],
-            camera_bind_group,
+            gbuffer_bind_group,
             gbuffer_pipeline,
             shadow_maps,
             shadow_view_buffer,
@@ -819,8 +787,6 @@ impl FrameResources {
         self.view = *view;
         self.uniforms.seed = seed;
         ctx.queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&self.uniforms));
-        let camera = CameraUniforms::of(view, self.width, self.height);
-        ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(&camera));
     }
 
     /// Sets each mesh's object motion: the matrix from its current world position to the previous
@@ -914,7 +880,7 @@ impl FrameResources {
                 &self.gbuffer_depth,
                 &self.gbuffer_pipeline,
                 (scene, Draws::PerMesh),
-                (&self.camera_bind_group, &[]),
+                (&self.gbuffer_bind_group, &[]),
             );
         })?;
         Ok(())
@@ -923,24 +889,11 @@ impl FrameResources {
 
 #[cfg(test)]
 mod tests {
-    use std::mem::offset_of;
-
-    use super::CameraUniforms;
     use crate::shaders::{Defines, validate};
 
+    // Its `FrameUniforms` is the shared module's, whose layout gpu/scene.rs checks against Rust.
     #[test]
-    fn gbuffer_shader_validates_and_its_camera_matches_rust() {
-        let m = validate("gbuffer", include_str!("gbuffer.wgsl"), &Defines::new());
-        crate::shaders::layout::assert_layout(
-            &m,
-            "Camera",
-            size_of::<CameraUniforms>(),
-            &[
-                ("view_proj", offset_of!(CameraUniforms, view_proj)),
-                ("prev_view_proj", offset_of!(CameraUniforms, prev_view_proj)),
-                ("position", offset_of!(CameraUniforms, position)),
-                ("size", offset_of!(CameraUniforms, size)),
-            ],
-        );
+    fn gbuffer_shader_validates() {
+        validate("gbuffer", include_str!("gbuffer.wgsl"), &Defines::new());
     }
 }

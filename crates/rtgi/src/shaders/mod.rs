@@ -21,6 +21,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/scene.wgsl", include_str!("common/scene.wgsl")),
     ("common/environment.wgsl", include_str!("common/environment.wgsl")),
     ("common/lights.wgsl", include_str!("common/lights.wgsl")),
+    ("common/frame_uniforms.wgsl", include_str!("common/frame_uniforms.wgsl")),
     ("common/frame.wgsl", include_str!("common/frame.wgsl")),
     ("common/light_sampling.wgsl", include_str!("common/light_sampling.wgsl")),
     ("common/sh.wgsl", include_str!("common/sh.wgsl")),
