@@ -5,8 +5,10 @@
 //! - time: poses the scene; a moved camera restarts accumulation; moved lights rewrite the light
 //!   buffer, re-aim and re-render the shadow maps, and either update the technique in place
 //!   ([`Technique::scene_changed`]) or create it anew; a moved sky sun is re-baked in place
-//!   ([`GpuScene::update_environment`], [`Technique::scene_changed`]); moved geometry re-uploads
-//!   the scene (see [`RendererCounters::scene_uploads`]);
+//!   ([`GpuScene::update_environment`], [`Technique::scene_changed`]); moved meshes (rigid instances
+//!   of the two-level BVH) have their vertices rewritten and the BVH's top level rebuilt
+//!   ([`GpuScene::move_meshes`]; no upload, no bottom-level build), and shadow maps and RSMs render
+//!   again;
 //! - camera: restarts accumulation, keeps history (a camera move is not a cut; [`Renderer::cut`] is);
 //! - parameters that only feed uniforms (`seed`, shadow filter, bias and offset) write uniforms; others
 //!   create the technique anew (and the frame resources when the shadow-map size changes);
@@ -52,8 +54,11 @@ pub struct RendererSettings {
 pub struct RendererCounters {
     /// GPU scene uploads, each with a BVH build of every mesh.
     pub scene_uploads: u32,
-    /// BVH builds (today one per scene upload).
+    /// BVH builds of the scene's meshes (bottom levels; one per scene upload).
     pub bvh_builds: u32,
+    /// Moving meshes moved in place: their vertices rewritten and the BVH's top level over instances
+    /// rebuilt (no bottom-level build).
+    pub geometry_updates: u32,
     /// Frame resources (G-buffer, shadow maps) created.
     pub frame_builds: u32,
     /// Techniques created.
@@ -216,6 +221,9 @@ pub struct Renderer {
     counters: RendererCounters,
     /// Per mesh, the transform of the geometry in the previous frame (object motion vectors).
     previous_mesh_transforms: Option<Vec<Mat4>>,
+    /// Per mesh, the transform of the geometry when the GPU scene was uploaded (its BVH instances map
+    /// from there).
+    uploaded_mesh_transforms: Vec<Mat4>,
     shader_compilations_at_start: u64,
     setup_ms: f64,
     memory: Vec<MemorySample>,
@@ -231,7 +239,7 @@ impl Renderer {
         let posed = pose(&scene, 0.0);
         let camera = posed.scene.camera;
         let (gpu_scene, frame, output, technique) = ctx.checked("setting up the render", || {
-            let gpu_scene = GpuScene::new(ctx, &posed.scene)?;
+            let gpu_scene = GpuScene::with_moving_meshes(ctx, &posed.scene, &scene.moving_meshes())?;
             let frame = FrameResources::new(
                 ctx,
                 &gpu_scene,
@@ -245,6 +253,7 @@ impl Renderer {
             Ok::<_, RenderError>((gpu_scene, frame, output, technique))
         })??;
         ctx.wait_idle()?;
+        let uploaded_mesh_transforms = posed.mesh_transforms.clone();
         let mut renderer = Renderer {
             ctx: ctx.clone(),
             source: scene,
@@ -272,6 +281,7 @@ impl Renderer {
                 ..Default::default()
             },
             previous_mesh_transforms: None,
+            uploaded_mesh_transforms,
             shader_compilations_at_start,
             setup_ms: 0.0,
             memory: Vec::new(),
@@ -377,14 +387,47 @@ impl Renderer {
         if !self.camera_override {
             self.look_through(pose.camera);
         }
+        let ctx = self.ctx.clone();
         if pose.mesh_transforms != self.posed.mesh_transforms {
-            // Until rigid objects become BVH instances, moved geometry means a new upload.
-            let mesh_transforms = pose.mesh_transforms.clone();
-            self.posed = Posed { scene: self.source.posed_with(pose), mesh_transforms };
             self.restart_accumulation();
-            return self.rebuild_scene();
+            let moved: Vec<usize> = (0..pose.mesh_transforms.len())
+                .filter(|&m| pose.mesh_transforms[m] != self.posed.mesh_transforms[m])
+                .collect();
+            // Only the moved meshes are posed anew (as `Scene::posed_with` would pose them).
+            for &m in &moved {
+                let (source, t) = (&self.source.meshes[m], pose.mesh_transforms[m]);
+                self.posed.scene.meshes[m] =
+                    if t == Mat4::IDENTITY { source.clone() } else { source.transformed(t) };
+            }
+            self.posed.mesh_transforms.clone_from(&pose.mesh_transforms);
+            let from_upload: Vec<Mat4> = self
+                .posed
+                .mesh_transforms
+                .iter()
+                .zip(&self.uploaded_mesh_transforms)
+                .map(
+                    |(now, uploaded)| {
+                        if now == uploaded { Mat4::IDENTITY } else { *now * uploaded.inverse() }
+                    },
+                )
+                .collect();
+            let in_place = ctx.checked("moving meshes", || {
+                self.gpu_scene.move_meshes(&ctx, &self.posed.scene, &moved, &from_upload)
+            })??;
+            if !in_place {
+                self.posed.scene.place_lights_and_camera(pose);
+                return self.rebuild_scene();
+            }
+            self.counters.geometry_updates += 1;
+            ctx.checked("moving meshes", || -> Result<(), RenderError> {
+                self.frame.update_shadow_views(&ctx, &self.gpu_scene);
+                if self.technique.scene_changed(&ctx, &self.gpu_scene, SceneChange::Geometry)? {
+                    Ok(())
+                } else {
+                    self.rebuild_technique()
+                }
+            })??;
         }
-        // The meshes stay where they are: only lights, camera and sky change in the posed scene.
         // Posing changes the environment only through a sky's sun; comparing that avoids copying a map.
         let sun = |e: &Environment| match e {
             Environment::Sky { sun_direction, .. } => Some(*sun_direction),
@@ -394,7 +437,6 @@ impl Renderer {
         let lights_moved = pose.lights != self.posed.scene.lights;
         self.posed.scene.place_lights_and_camera(pose);
         let environment_changed = sun(&self.posed.scene.environment) != sun_before;
-        let ctx = self.ctx.clone();
         if environment_changed {
             self.restart_accumulation();
             let in_place = ctx.checked("changing the environment", || {
@@ -538,7 +580,9 @@ impl Renderer {
         // History stays valid: the new upload is the same scene moved, and motion vectors bridge it.
         let ctx = self.ctx.clone();
         ctx.checked("uploading the moved scene", || -> Result<(), RenderError> {
-            self.gpu_scene = GpuScene::new(&ctx, &self.posed.scene)?;
+            self.gpu_scene =
+                GpuScene::with_moving_meshes(&ctx, &self.posed.scene, &self.source.moving_meshes())?;
+            self.uploaded_mesh_transforms.clone_from(&self.posed.mesh_transforms);
             self.counters.scene_uploads += 1;
             self.counters.bvh_builds += 1;
             self.rebuild_frame(&ctx, ShadowSettings::from_params(&self.params))?;

@@ -5,9 +5,10 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
+use super::bvh::{Bvh, GpuBvh, InstancedBvh, SceneTriangles, TopLevel};
 use super::{GpuContext, GpuError};
 use crate::scene::{AlphaMode, Environment, Light, Scene};
 
@@ -226,8 +227,8 @@ pub struct GpuScene {
     /// Bumped whenever [`GpuScene::update_lights`] changes a light, so passes that render from the
     /// lights (shadow maps, RSMs) know to render again.
     pub lights_version: u64,
-    /// Identifies the uploaded geometry: unique per upload, so state rendered from another upload
-    /// (shadow maps, RSMs) is never mistaken for current.
+    /// Identifies the geometry: new with every upload and every [`GpuScene::move_meshes`], so state
+    /// rendered from other geometry (shadow maps, RSMs) is never mistaken for current.
     pub geometry_version: u64,
     pub bind_group_layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
@@ -245,6 +246,10 @@ pub struct GpuScene {
     environment: wgpu::Texture,
     environment_cdf: wgpu::Buffer,
     sky_baker: Option<SkyBaker>,
+    bvh: GpuBvh,
+    emissive_buffer: wgpu::Buffer,
+    emission_pdf_buffer: wgpu::Buffer,
+    moving: Option<MovingMeshes>,
 }
 
 struct TextureArrays {
@@ -421,6 +426,7 @@ pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
             storage_layout_entry(12),
             storage_layout_entry(13),
+            storage_layout_entry(14),
         ],
     })
 }
@@ -528,29 +534,55 @@ struct Geometry {
     vertices: Vec<GpuVertex>,
     indices: Vec<u32>,
     mesh_ranges: Vec<std::ops::Range<u32>>,
+    /// Per mesh, its first vertex.
+    vertex_bases: Vec<u32>,
+}
+
+/// A mesh's vertices as the GPU reads them.
+fn mesh_vertices(mesh: &crate::scene::Mesh) -> impl Iterator<Item = GpuVertex> + '_ {
+    (0..mesh.positions.len()).map(|i| {
+        let t = mesh.tangents[i];
+        let flip = if t.w < 0.0 { TANGENT_FLIP_BIT } else { 0 };
+        GpuVertex {
+            position: mesh.positions[i].into(),
+            material_flags: (mesh.material & MATERIAL_MASK) | flip,
+            normal_oct: pack_unit_vector(mesh.normals[i].normalize_or(Vec3::Y)),
+            tangent_oct: pack_unit_vector(t.truncate().normalize_or(Vec3::X)),
+            uv: mesh.uvs[i].into(),
+        }
+    })
 }
 
 fn pack_geometry(scene: &Scene, vertex_count: usize, triangle_count: usize) -> Geometry {
     let mut vertices = Vec::with_capacity(vertex_count);
     let mut indices = Vec::with_capacity(triangle_count * 3);
     let mut mesh_ranges = Vec::with_capacity(scene.meshes.len());
+    let mut vertex_bases = Vec::with_capacity(scene.meshes.len());
     for mesh in &scene.meshes {
         let base = vertices.len() as u32;
+        vertex_bases.push(base);
         mesh_ranges.push(indices.len() as u32..(indices.len() + mesh.indices.len()) as u32);
-        for i in 0..mesh.positions.len() {
-            let t = mesh.tangents[i];
-            let flip = if t.w < 0.0 { TANGENT_FLIP_BIT } else { 0 };
-            vertices.push(GpuVertex {
-                position: mesh.positions[i].into(),
-                material_flags: (mesh.material & MATERIAL_MASK) | flip,
-                normal_oct: pack_unit_vector(mesh.normals[i].normalize_or(Vec3::Y)),
-                tangent_oct: pack_unit_vector(t.truncate().normalize_or(Vec3::X)),
-                uv: mesh.uvs[i].into(),
-            });
-        }
+        vertices.extend(mesh_vertices(mesh));
         indices.extend(mesh.indices.iter().map(|i| i + base));
     }
-    Geometry { vertices, indices, mesh_ranges }
+    Geometry { vertices, indices, mesh_ranges, vertex_bases }
+}
+
+/// A fresh [`GpuScene::geometry_version`]: unique across uploads and in-place moves, so state rendered
+/// from other geometry (shadow maps, RSMs) is never mistaken for current.
+fn next_geometry_version() -> u64 {
+    static VERSIONS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    VERSIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
+/// What moving rigid meshes in place needs (see [`GpuScene::move_meshes`]).
+struct MovingMeshes {
+    /// Per mesh: whether it may move (it has a bottom level of its own).
+    moving: Vec<bool>,
+    top: TopLevel,
+    vertex_bases: Vec<u32>,
+    /// Bounds of the meshes that never move.
+    static_bounds: crate::scene::Aabb,
 }
 
 /// The emissive triangles with their power CDF, and the per-material area density of emitted power.
@@ -661,6 +693,18 @@ fn environment_tables(
 impl GpuScene {
     /// Uploads `scene`. Device limits are checked before any allocation.
     pub fn new(ctx: &GpuContext, scene: &Scene) -> Result<GpuScene, GpuError> {
+        Self::with_moving_meshes(ctx, scene, &[])
+    }
+
+    /// Uploads `scene`, whose meshes flagged in `moving` may later move rigidly
+    /// ([`GpuScene::move_meshes`]): each gets a bottom-level BVH of its own under a top level over
+    /// instances; all other meshes share one static bottom level. With nothing moving the BVH is a
+    /// single level, as [`GpuScene::new`] makes it.
+    pub fn with_moving_meshes(
+        ctx: &GpuContext,
+        scene: &Scene,
+        moving: &[bool],
+    ) -> Result<GpuScene, GpuError> {
         scene.validate().map_err(|e| GpuError::Other(format!("invalid scene '{}': {e}", scene.name)))?;
         let mut warnings = Vec::new();
         let vertex_count = scene.vertex_count();
@@ -673,7 +717,8 @@ impl GpuScene {
 
         let (materials, table) = gpu_materials(ctx, scene)?;
 
-        let Geometry { vertices, indices, mesh_ranges } = pack_geometry(scene, vertex_count, triangle_count);
+        let Geometry { vertices, indices, mesh_ranges, vertex_bases } =
+            pack_geometry(scene, vertex_count, triangle_count);
         let Emitters { triangles: emissive, pdf: emission_pdf, total_power } = emitters(scene);
 
         let lights = gpu_lights(&scene.lights);
@@ -734,9 +779,30 @@ impl GpuScene {
         );
 
         let t0 = Instant::now();
-        let bvh = super::bvh::Bvh::from_scene(scene)?;
+        let mut moving_meshes = None;
+        let gpu_bvh = if moving.iter().any(|&m| m) {
+            let tris = SceneTriangles::from_scene(scene);
+            let two_level = InstancedBvh::build(&tris, moving)?;
+            let gpu_bvh = GpuBvh::new(ctx, &two_level.bvh)?;
+            let mut static_bounds = crate::scene::Aabb::EMPTY;
+            for (mesh, _) in
+                scene.meshes.iter().zip(moving.iter().chain(std::iter::repeat(&false))).filter(|(_, m)| !**m)
+            {
+                for p in &mesh.positions {
+                    static_bounds.grow(*p);
+                }
+            }
+            moving_meshes = Some(MovingMeshes {
+                moving: (0..scene.meshes.len()).map(|m| moving.get(m).copied().unwrap_or(false)).collect(),
+                top: two_level.top,
+                vertex_bases,
+                static_bounds,
+            });
+            gpu_bvh
+        } else {
+            GpuBvh::new(ctx, &Bvh::from_scene(scene)?)?
+        };
         let bvh_build_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let gpu_bvh = super::bvh::GpuBvh::new(ctx, &bvh)?;
 
         let (srgb_layers, linear_layers) = (table.srgb.clone(), table.linear.clone());
         let (srgb, srgb_bytes) = create_texture_array(
@@ -815,6 +881,7 @@ impl GpuScene {
                     },
                     wgpu::BindGroupEntry { binding: 12, resource: emission_pdf_buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 13, resource: env_cdf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 14, resource: gpu_bvh.instances.as_entire_binding() },
                 ],
             })
         };
@@ -845,6 +912,7 @@ impl GpuScene {
             + info_buffer.size()
             + gpu_bvh.nodes.size()
             + gpu_bvh.triangles.size()
+            + gpu_bvh.instances.size()
             + textures.bytes
             + (env_texels.2.len() * 4) as u64;
         let environment_power = match info.env_kind {
@@ -866,10 +934,7 @@ impl GpuScene {
             light_buffer,
             lights,
             lights_version: 0,
-            geometry_version: {
-                static UPLOADS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-                UPLOADS.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-            },
+            geometry_version: next_geometry_version(),
             bind_group_layout: layout,
             bind_group,
             bvh_build_ms,
@@ -881,7 +946,88 @@ impl GpuScene {
             environment: env,
             environment_cdf: env_cdf_buffer,
             sky_baker,
+            bvh: gpu_bvh,
+            emissive_buffer,
+            emission_pdf_buffer,
+            moving: moving_meshes,
         })
+    }
+
+    /// Moves meshes in place: `scene` is the uploaded scene posed anew, in which the meshes `moved`
+    /// (flagged moving at upload) changed; `from_upload[m]` maps mesh m's geometry as uploaded to where
+    /// it is now. Rewrites their vertices and indices, rebuilds the BVH's top level, the bounds and (when
+    /// an emitter moved) the emitter table, and gives the geometry a new version. Returns `false` when
+    /// the change cannot be made in place (a mesh moved that was uploaded as static, or an emitter
+    /// scaled to nothing): the scene must then be uploaded anew.
+    pub fn move_meshes(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        moved: &[usize],
+        from_upload: &[Mat4],
+    ) -> Result<bool, GpuError> {
+        let Some(moving) = &mut self.moving else { return Ok(moved.is_empty()) };
+        if moved.iter().any(|&m| !moving.moving.get(m).copied().unwrap_or(false))
+            || scene.meshes.len() != moving.moving.len()
+        {
+            return Ok(false);
+        }
+        for &m in moved {
+            let mesh = &scene.meshes[m];
+            let base = moving.vertex_bases[m];
+            let vertices: Vec<GpuVertex> = mesh_vertices(mesh).collect();
+            // A mirroring transform flips the winding, so the indices are rewritten too.
+            let indices: Vec<u32> = mesh.indices.iter().map(|i| i + base).collect();
+            if !vertices.is_empty() {
+                let offset = u64::from(base) * size_of::<GpuVertex>() as u64;
+                ctx.queue.write_buffer(&self.vertex_buffer, offset, bytemuck::cast_slice(&vertices));
+            }
+            if !indices.is_empty() {
+                let offset = u64::from(self.mesh_ranges[m].start) * 4;
+                ctx.queue.write_buffer(&self.index_buffer, offset, bytemuck::cast_slice(&indices));
+            }
+        }
+        let transforms: Vec<Mat4> = moving
+            .top
+            .instance_meshes
+            .iter()
+            .map(|&m| from_upload.get(m).copied().unwrap_or(Mat4::IDENTITY))
+            .collect();
+        moving.top.place(&transforms);
+        self.bvh.update_top_level(ctx, &moving.top);
+
+        let mut info = self.info;
+        let mut bounds = moving.static_bounds;
+        for (mesh, _) in scene.meshes.iter().zip(&moving.moving).filter(|(_, m)| **m) {
+            for p in &mesh.positions {
+                bounds.grow(*p);
+            }
+        }
+        info.bounds_min = bounds.min.into();
+        info.bounds_max = bounds.max.into();
+        let emitter_moved = moved.iter().any(|&m| {
+            scene.materials.get(scene.meshes[m].material as usize).is_some_and(|mat| mat.is_emissive())
+        });
+        if emitter_moved {
+            // Areas (so powers and the sampling CDF) change under scaling; the triangles stay the same.
+            let Emitters { triangles, pdf, total_power } = emitters(scene);
+            if triangles.len() as u32 != info.emissive_count {
+                return Ok(false);
+            }
+            if !triangles.is_empty() {
+                ctx.queue.write_buffer(&self.emissive_buffer, 0, bytemuck::cast_slice(&triangles));
+            }
+            if !pdf.is_empty() {
+                ctx.queue.write_buffer(&self.emission_pdf_buffer, 0, bytemuck::cast_slice(&pdf));
+            }
+            info.emissive_power = total_power as f32;
+        }
+        if bytemuck::bytes_of(&info) != bytemuck::bytes_of(&self.info) {
+            ctx.queue.write_buffer(&self.info_buffer, 0, bytemuck::bytes_of(&info));
+            self.info = info;
+        }
+        self.geometry_version = next_geometry_version();
+        Ok(true)
     }
 
     /// Changes the environment in place where its kind stays and its tables keep their size: a sky

@@ -89,6 +89,9 @@ pub enum SceneChange {
     Lights,
     /// The environment changed (e.g. a sky whose sun moved).
     Environment,
+    /// Moving meshes moved ([`GpuScene::move_meshes`]): vertices, BVH top level, bounds and, when an
+    /// emitter moved, the emitter table are updated; [`GpuScene::geometry_version`] is new.
+    Geometry,
 }
 
 /// How a technique behaves when the camera, lights or objects move.
@@ -126,8 +129,8 @@ pub trait Technique {
     }
 
     /// Something the technique may have derived state from changed in place: the GPU scene's light
-    /// buffer and [`GpuScene::lights_version`], or its environment (scene info, baked sky, sampling
-    /// table), are already updated. Returns whether the technique brought itself up to date; `false`
+    /// buffer and [`GpuScene::lights_version`], its environment (scene info, baked sky, sampling
+    /// table), or its geometry ([`SceneChange::Geometry`]) are already updated. Returns whether the technique brought itself up to date; `false`
     /// makes the renderer create it anew, which is always correct but recompiles its pipelines.
     fn scene_changed(
         &mut self,

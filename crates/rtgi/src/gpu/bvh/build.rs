@@ -18,7 +18,7 @@ const MAX_LEAF: usize = 4;
 const COST_TRAVERSAL: f32 = 1.0;
 const COST_TRIANGLE: f32 = 1.0;
 /// The traversal stack bounds the tree depth (see [`median_height`]).
-const MAX_DEPTH: u32 = BVH_STACK_SIZE;
+pub(super) const MAX_DEPTH: u32 = BVH_STACK_SIZE;
 /// Nodes at this depth with at least `PARALLEL_MIN` triangles become independent subtree builds.
 const PARALLEL_DEPTH: u32 = 4;
 const PARALLEL_MIN: usize = 16 * 1024;
@@ -80,6 +80,8 @@ struct Task {
     /// Bounds of the prims' `centroid2`.
     centroids: Bounds,
     depth: u32,
+    /// Deepest a leaf of this build may be (see [`build`]).
+    depth_limit: u32,
 }
 
 #[derive(Clone, Copy)]
@@ -146,9 +148,10 @@ fn plan(prims: &[Prim], task: &Task) -> Plan {
     }
     // Depth budget: median splits finish any node within median_height levels, and an SAH split is
     // allowed only while its children could still finish that way. Every node then satisfies
-    // depth + median_height(count) <= MAX_DEPTH (true at the root for any input up to BVH_MAX_TRIANGLES),
-    // so no leaf is deeper than MAX_DEPTH, whatever the geometry.
-    if task.depth + 1 + median_height(count) > MAX_DEPTH {
+    // depth + median_height(count) <= depth_limit (true at the root: `build` is only called with a
+    // limit of at least median_height of the count), so no leaf is deeper than the limit, whatever the
+    // geometry.
+    if task.depth + 1 + median_height(count) > task.depth_limit {
         return if count <= MAX_LEAF { Plan::Leaf } else { Plan::Median };
     }
     let binner = Binner::new(&task.centroids, count);
@@ -299,6 +302,7 @@ fn build_subtree(prims: &mut [Prim], offset: usize, root: Task, defer: bool) -> 
             bounds: bounds[side],
             centroids: centroids[side],
             depth: task.depth + 1,
+            depth_limit: task.depth_limit,
         };
         // Right pushed first so the left subtree is built (and laid out) first.
         stack.push(child(left + 1, task.start + mid, task.end, 1));
@@ -326,13 +330,26 @@ fn parallel_chunks<T: Send>(
     })
 }
 
-pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>) -> Bvh {
+/// Height of the tree median splits build over `count` triangles: the least depth limit a build of
+/// that many triangles can meet.
+pub(super) fn least_depth(count: usize) -> u32 {
+    median_height(count)
+}
+
+/// Builds the BVH with no leaf deeper than `depth_limit` (at least [`least_depth`] of the count;
+/// [`MAX_DEPTH`] for a standalone tree, less for one grafted below a top level).
+pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>, depth_limit: u32) -> Bvh {
     let n = triangles.len();
     if n == 0 {
         let zero = Bounds { min: Vec3A::ZERO, max: Vec3A::ZERO };
-        return Bvh { nodes: vec![node(&zero, 0, 1)], triangles: vec![EMPTY_TRIANGLE], max_depth: 0 };
+        return Bvh {
+            nodes: vec![node(&zero, 0, 1)],
+            triangles: vec![EMPTY_TRIANGLE],
+            instances: Vec::new(),
+            max_depth: 0,
+        };
     }
-    debug_assert!(n <= BVH_MAX_TRIANGLES && median_height(n) <= MAX_DEPTH);
+    debug_assert!(n <= BVH_MAX_TRIANGLES && median_height(n) <= depth_limit && depth_limit <= MAX_DEPTH);
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(16);
     let threads = if n < 64 * 1024 { 1 } else { threads };
 
@@ -359,7 +376,7 @@ pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>) -> B
         centroids = centroids.union(c);
     }
 
-    let root = Task { slot: 0, start: 0, end: n, bounds, centroids, depth: 0 };
+    let root = Task { slot: 0, start: 0, end: n, bounds, centroids, depth: 0, depth_limit };
     let top = build_subtree(&mut prims, 0, root, true);
     let mut nodes = top.nodes;
     let mut max_depth = top.max_depth;
@@ -436,5 +453,5 @@ pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>) -> B
             .collect::<Vec<_>>()
     });
     let triangles = packed.concat();
-    Bvh { nodes, triangles, max_depth }
+    Bvh { nodes, triangles, instances: Vec::new(), max_depth }
 }

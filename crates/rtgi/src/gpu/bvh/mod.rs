@@ -17,10 +17,17 @@
 //!   triangle index (v0), flags (v1, bit 0 = alpha-tested) and padding (v2). Keeping the vertices here
 //!   instead of indexing the scene's vertex buffer saves a dependent load per triangle test.
 //!
+//! - [`BvhInstance`], 64 bytes: the world-to-object rows of a rigid instance and the node index of its
+//!   bottom-level root. A leaf with `count == BVH_INSTANCE_LEAF` is instance `left_first`: the
+//!   traversal moves the ray into the instance's space and descends into its bottom level. Only
+//!   [`InstancedBvh`] makes such leaves (a two-level BVH, for scenes with moving rigid meshes); a plain
+//!   [`Bvh::build`] has none.
+//!
 //! Triangle indices are global: the position in the flat list given to [`Bvh::build`], which for a
 //! scene is [`SceneTriangles`] (meshes concatenated in order, as the GPU scene upload does).
 
 mod build;
+mod instances;
 mod traverse;
 
 #[cfg(test)]
@@ -30,12 +37,14 @@ pub(crate) mod test_geometry;
 #[cfg(test)]
 mod tests;
 
+use bytemuck::Zeroable;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 use super::{GpuContext, GpuError};
 use crate::scene::{AlphaMode, Scene};
 
+pub use instances::{InstancedBvh, TopLevel};
 pub use traverse::{intersect_brute_force, occluded_brute_force};
 
 /// Entries of the traversal stack in `bvh.wgsl` (and the CPU traversal). The builder keeps the tree
@@ -51,6 +60,10 @@ pub const BVH_MAX_TRIANGLES: usize = 1 << 28;
 /// confirmed by the includer's `bvh_alpha_test`.
 pub const BVH_FLAG_ALPHA_TESTED: u32 = 1;
 
+/// `count` of a top-level leaf that is an instance (see [`BvhInstance`]); triangle leaves hold at most
+/// 4 triangles, and a node reference in `bvh.wgsl` keeps `count` in 3 bits.
+pub const BVH_INSTANCE_LEAF: u32 = 7;
+
 /// A BVH node as the GPU reads it (see the module documentation).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -62,8 +75,40 @@ pub struct BvhNode {
 }
 
 impl BvhNode {
+    /// A leaf: of triangles, or an instance ([`BvhNode::is_instance`]).
     pub fn is_leaf(&self) -> bool {
         self.count > 0
+    }
+
+    /// A top-level leaf standing for instance `left_first`.
+    pub fn is_instance(&self) -> bool {
+        self.count == BVH_INSTANCE_LEAF
+    }
+}
+
+/// A rigid instance as the GPU reads it (see the module documentation).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BvhInstance {
+    /// Rows of the affine map from world space to the instance's bottom level:
+    /// `object = (dot(rows[0], p), dot(rows[1], p), dot(rows[2], p))` with `p = (world, 1)` for points
+    /// and `(world, 0)` for directions.
+    pub world_to_object: [[f32; 4]; 3],
+    /// Node index of the bottom level's root.
+    pub root: u32,
+    pub pad: [u32; 3],
+}
+
+impl BvhInstance {
+    /// `ray` in the instance's space. Hit distances carry over unchanged: the map is affine and the
+    /// direction is not renormalised.
+    pub fn ray_to_object(&self, ray: &Ray) -> Ray {
+        let map = |v: Vec3, w: f32| {
+            let p = glam::Vec4::new(v.x, v.y, v.z, w);
+            let [r0, r1, r2] = self.world_to_object.map(glam::Vec4::from);
+            Vec3::new(r0.dot(p), r1.dot(p), r2.dot(p))
+        };
+        Ray { origin: map(ray.origin, 1.0), dir: map(ray.dir, 0.0) }
     }
 }
 
@@ -174,6 +219,8 @@ impl SceneTriangles {
 pub struct Bvh {
     pub nodes: Vec<BvhNode>,
     pub triangles: Vec<BvhTriangle>,
+    /// The instances its top-level leaves refer to (empty for a single-level BVH).
+    pub instances: Vec<BvhInstance>,
     /// Depth of the deepest leaf (the root has depth 0); at most [`BVH_STACK_SIZE`].
     pub max_depth: u32,
 }
@@ -189,7 +236,7 @@ impl Bvh {
                 triangles.len()
             )));
         }
-        Ok(build::build(triangles, alpha_tested))
+        Ok(build::build(triangles, alpha_tested, build::MAX_DEPTH))
     }
 
     /// Builds the BVH of a (valid) scene, triangle indices as in [`SceneTriangles::from_scene`].
@@ -207,14 +254,16 @@ impl Bvh {
         }
     }
 
+    /// Leaves holding triangles.
     pub fn leaf_count(&self) -> usize {
-        self.nodes.iter().filter(|n| n.is_leaf()).count()
+        self.nodes.iter().filter(|n| n.is_leaf() && !n.is_instance()).count()
     }
 
-    /// Bytes of the two GPU buffers.
+    /// Bytes of the GPU buffers.
     pub fn memory_bytes(&self) -> u64 {
-        (std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.triangles.as_slice()))
-            as u64
+        (std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.triangles.as_slice())
+            + std::mem::size_of_val(self.instances.as_slice())) as u64
     }
 
     /// SAH cost of the tree (traversal steps 1, triangle tests 1, relative to the root's area): a
@@ -230,16 +279,19 @@ impl Bvh {
         }
         self.nodes
             .iter()
-            .map(|n| half_area(n) * if n.is_leaf() { f64::from(n.count) } else { 1.0 })
+            .map(|n| half_area(n) * if n.is_leaf() && !n.is_instance() { f64::from(n.count) } else { 1.0 })
             .sum::<f64>()
             / root
     }
 }
 
-/// The BVH on the GPU: the storage buffers `bvh.wgsl` expects as `bvh_nodes` and `bvh_tris`.
+/// The BVH on the GPU: the storage buffers `bvh.wgsl` expects as `bvh_nodes`, `bvh_tris` and
+/// `bvh_instances`.
 pub struct GpuBvh {
     pub nodes: wgpu::Buffer,
     pub triangles: wgpu::Buffer,
+    /// At least one entry (zeroed and never read for a single-level BVH): no binding is zero-sized.
+    pub instances: wgpu::Buffer,
     pub node_count: u32,
     pub triangle_count: u32,
 }
@@ -272,22 +324,35 @@ impl GpuBvh {
         };
         let node_buffer = create("bvh nodes", nodes);
         let tri_buffer = create("bvh triangles", tris);
+        let placeholder = [BvhInstance::zeroed()];
+        let instances = if bvh.instances.is_empty() { &placeholder[..] } else { &bvh.instances[..] };
+        let instance_buffer = create("bvh instances", bytemuck::cast_slice(instances));
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Other(format!("allocating the BVH buffers: {e}")));
         }
         Ok(GpuBvh {
             nodes: node_buffer,
             triangles: tri_buffer,
+            instances: instance_buffer,
             node_count: bvh.nodes.len() as u32,
             triangle_count: bvh.triangles.len() as u32,
         })
     }
 
-    /// Layout entries for `bvh_nodes` at `first_binding` and `bvh_tris` at `first_binding + 1`.
+    /// Writes the top level and instances of `bvh` (placed anew) over those uploaded from it.
+    pub fn update_top_level(&self, ctx: &GpuContext, top: &TopLevel) {
+        ctx.queue.write_buffer(&self.nodes, 0, bytemuck::cast_slice(&top.nodes));
+        if !top.instances.is_empty() {
+            ctx.queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&top.instances));
+        }
+    }
+
+    /// Layout entries for `bvh_nodes`, `bvh_tris` and `bvh_instances` at `first_binding` and the two
+    /// bindings after it.
     pub fn layout_entries(
         first_binding: u32,
         visibility: wgpu::ShaderStages,
-    ) -> [wgpu::BindGroupLayoutEntry; 2] {
+    ) -> [wgpu::BindGroupLayoutEntry; 3] {
         let entry = |binding| wgpu::BindGroupLayoutEntry {
             binding,
             visibility,
@@ -298,14 +363,15 @@ impl GpuBvh {
             },
             count: None,
         };
-        [entry(first_binding), entry(first_binding + 1)]
+        [entry(first_binding), entry(first_binding + 1), entry(first_binding + 2)]
     }
 
     /// Bind group entries matching [`GpuBvh::layout_entries`].
-    pub fn bind_entries(&self, first_binding: u32) -> [wgpu::BindGroupEntry<'_>; 2] {
+    pub fn bind_entries(&self, first_binding: u32) -> [wgpu::BindGroupEntry<'_>; 3] {
         [
             wgpu::BindGroupEntry { binding: first_binding, resource: self.nodes.as_entire_binding() },
             wgpu::BindGroupEntry { binding: first_binding + 1, resource: self.triangles.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: first_binding + 2, resource: self.instances.as_entire_binding() },
         ]
     }
 }

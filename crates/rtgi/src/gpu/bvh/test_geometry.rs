@@ -307,3 +307,70 @@ pub(crate) fn camera_rays(triangles: &[[Vec3; 3]], w: u32, h: u32) -> Vec<Ray> {
     }
     rays
 }
+
+/// A scene for the two-level BVH: [`sphere_in_box`] (static) plus meshes that are instances: spheres
+/// and soup clusters built around the origin, one of them empty, one mirrored, one scaled to nothing
+/// (never hit). Returns (the scene's triangles as uploaded, which meshes move, per instance the map
+/// from its uploaded geometry to where it is, and the world-space triangles for brute force).
+pub(crate) struct InstancedScene {
+    pub tris: super::SceneTriangles,
+    pub moving: Vec<bool>,
+    pub transforms: Vec<glam::Mat4>,
+    pub world: Vec<[Vec3; 3]>,
+}
+
+pub(crate) fn instanced_scene(seed: u64) -> InstancedScene {
+    use glam::{Mat4, Quat};
+    let mut rng = Rng::new(seed);
+    let mut meshes: Vec<(Vec<[Vec3; 3]>, bool)> = vec![(sphere_in_box(), false)];
+    // A static mesh after the moving ones too, so the static bottom level is not one contiguous range.
+    let mut sphere = Vec::new();
+    uv_sphere(&mut sphere, Vec3::ZERO, 0.25, 12, 24);
+    for i in 0..6 {
+        let mesh = match i {
+            2 => Vec::new(),
+            3 => triangle_soup(400, seed ^ 7)
+                .into_iter()
+                .map(|t| t.map(|v| v * 0.3 - Vec3::splat(0.15)))
+                .collect(),
+            _ => sphere.clone(),
+        };
+        meshes.push((mesh, true));
+    }
+    let mut clutter = Vec::new();
+    uv_sphere(&mut clutter, Vec3::new(-0.6, -0.6, 0.8), 0.2, 8, 16);
+    meshes.push((clutter, false));
+
+    let mut tris = super::SceneTriangles::default();
+    for (mesh, _) in &meshes {
+        tris.mesh_offsets.push(tris.triangles.len() as u32);
+        tris.triangles.extend_from_slice(mesh);
+    }
+    tris.mesh_offsets.push(tris.triangles.len() as u32);
+    tris.alpha_tested = (0..tris.triangles.len()).map(|i| i % 2 == 1).collect();
+    let moving: Vec<bool> = meshes.iter().map(|(_, m)| *m).collect();
+
+    let mut transforms = Vec::new();
+    let mut world = tris.triangles.clone();
+    let mut instance = 0;
+    for (m, (mesh, moves)) in meshes.iter().enumerate() {
+        if !moves || mesh.is_empty() {
+            continue;
+        }
+        let rotation = Quat::from_axis_angle(rng.unit_vector(), rng.range(0.0, 6.0));
+        let scale = match instance {
+            1 => Vec3::new(-1.2, 0.8, 1.0), // mirrored, non-uniform
+            4 => Vec3::ZERO,                // scaled to nothing
+            _ => Vec3::splat(rng.range(0.6, 1.6)),
+        };
+        let translation = rng.in_box(Vec3::new(-0.6, -0.6, -0.6), Vec3::new(0.6, 1.1, 0.8));
+        let t = Mat4::from_scale_rotation_translation(scale, rotation, translation);
+        let range = tris.mesh_offsets[m] as usize..tris.mesh_offsets[m + 1] as usize;
+        for tri in &mut world[range] {
+            *tri = tri.map(|v| t.transform_point3(v));
+        }
+        transforms.push(t);
+        instance += 1;
+    }
+    InstancedScene { tris, moving, transforms, world }
+}

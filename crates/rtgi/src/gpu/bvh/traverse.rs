@@ -14,6 +14,7 @@ pub(crate) const MIN_DIR_COMPONENT: f32 = 1e-20;
 
 /// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013): the axis `kz` along which
 /// the direction is largest, the shear that maps the ray onto +z, and the safe inverse direction.
+#[derive(Clone)]
 pub(crate) struct RayData {
     origin: Vec3,
     inv_dir: Vec3,
@@ -132,7 +133,10 @@ impl Bvh {
         tmax: f32,
         mut alpha: impl FnMut(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
-        let r = RayData::new(ray);
+        let world = RayData::new(ray);
+        let mut r = world.clone();
+        // Inside an instance: the stack depth at which it was entered (entries below are world space).
+        let mut instance_sp: Option<usize> = None;
         let mut best: Option<Hit> = None;
         let mut t_best = tmax;
         let mut stack = [(0u32, 0f32); BVH_STACK_SIZE as usize];
@@ -146,6 +150,10 @@ impl Bvh {
                         break;
                     }
                     sp -= 1;
+                    if instance_sp.is_some_and(|s| sp < s) {
+                        r = world.clone();
+                        instance_sp = None;
+                    }
                     let (i, entry) = stack[sp];
                     if entry >= t_best {
                         continue;
@@ -154,6 +162,13 @@ impl Bvh {
                 }
             };
             let node = &self.nodes[index as usize];
+            if node.is_instance() {
+                let instance = &self.instances[node.left_first as usize];
+                r = RayData::new(&instance.ray_to_object(ray));
+                instance_sp = Some(sp);
+                current = Some(instance.root);
+                continue;
+            }
             if node.is_leaf() {
                 for tri in &self.triangles[node.left_first as usize..(node.left_first + node.count) as usize]
                 {
@@ -198,7 +213,9 @@ impl Bvh {
         tmax: f32,
         mut alpha: impl FnMut(u32, f32, f32) -> bool,
     ) -> bool {
-        let r = RayData::new(ray);
+        let world = RayData::new(ray);
+        let mut r = world.clone();
+        let mut instance_sp: Option<usize> = None;
         let mut stack = [0u32; BVH_STACK_SIZE as usize];
         let mut sp = 0;
         let mut current = r.box_entry(&self.nodes[0], tmin, tmax).map(|_| 0u32);
@@ -208,10 +225,21 @@ impl Bvh {
                 None if sp == 0 => return false,
                 None => {
                     sp -= 1;
+                    if instance_sp.is_some_and(|s| sp < s) {
+                        r = world.clone();
+                        instance_sp = None;
+                    }
                     stack[sp]
                 }
             };
             let node = &self.nodes[index as usize];
+            if node.is_instance() {
+                let instance = &self.instances[node.left_first as usize];
+                r = RayData::new(&instance.ray_to_object(ray));
+                instance_sp = Some(sp);
+                current = Some(instance.root);
+                continue;
+            }
             if node.is_leaf() {
                 for tri in &self.triangles[node.left_first as usize..(node.left_first + node.count) as usize]
                 {

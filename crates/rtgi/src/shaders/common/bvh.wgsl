@@ -5,8 +5,9 @@
 // CONTRACT WITH THE INCLUDING SHADER. This module declares no bindings (each technique picks its own
 // group and binding numbers); the includer must declare, with exactly these names:
 //
-//   @group(G) @binding(B)     var<storage, read> bvh_nodes: array<BvhNode>;  // GpuBvh::nodes
-//   @group(G) @binding(B + 1) var<storage, read> bvh_tris: array<vec4f>;     // GpuBvh::triangles
+//   @group(G) @binding(B)     var<storage, read> bvh_nodes: array<BvhNode>;          // GpuBvh::nodes
+//   @group(G) @binding(B + 1) var<storage, read> bvh_tris: array<vec4f>;             // GpuBvh::triangles
+//   @group(G) @binding(C)     var<storage, read> bvh_instances: array<BvhInstance>;  // GpuBvh::instances
 //   fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool
 //
 // bvh_tris holds 3 vec4f per triangle: v0.xyz + original triangle index (u32 bits), v1.xyz + flags
@@ -14,6 +15,12 @@
 // triangles flagged alpha-tested, with the original (global) triangle index and the barycentrics of
 // v1 and v2; it returns true for an opaque hit. Shaders without alpha-masked materials can simply
 // `return true;`.
+//
+// Two levels: a leaf with count == BVH_INSTANCE_LEAF is instance left_first (a rigid moving mesh, see
+// gpu/bvh/instances.rs). The ray is mapped into the instance's space and the traversal goes on at its
+// bottom level's root; hit distances need no conversion (the map is affine and the direction keeps its
+// length in units of t). Stack entries pushed before the instance was entered are in world space, so
+// popping below that depth restores the world ray. Only one level of instancing exists.
 //
 // Queries: hits are accepted for tmin < t < tmax, t in units of ray.dir (which need not be
 // normalised). A miss is `hit.triangle == BVH_NO_HIT`, with hit.t = FLT_MAX.
@@ -25,6 +32,7 @@
 const BVH_STACK_SIZE: u32 = 32u;
 const BVH_NO_HIT: u32 = 0xffffffffu;
 const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
+const BVH_INSTANCE_LEAF: u32 = 7u;
 // Box exit distances are scaled by 1 + 2γ₃ (Ize 2013, "Robust BVH Ray Traversal") so rounding never
 // culls a box the ray touches, e.g. one whose face holds a triangle.
 const BVH_BOX_EXIT_SCALE: f32 = 1.0000004;
@@ -51,6 +59,14 @@ struct BvhNode {
     left_first: u32,
     aabb_max: vec3f,
     count: u32,
+}
+
+// world_to_object rows: object = (dot(row0, p), dot(row1, p), dot(row2, p)), p = (world, 1 or 0).
+struct BvhInstance {
+    row0: vec4f,
+    row1: vec4f,
+    row2: vec4f,
+    root: u32,
 }
 
 fn hit_found(hit: Hit) -> bool {
@@ -98,6 +114,15 @@ fn bvh_ray(ray: Ray) -> BvhRay {
     let tiny = select(vec3f(BVH_MIN_DIR_COMPONENT), vec3f(-BVH_MIN_DIR_COMPONENT), d < vec3f(0.0));
     let safe = select(d, tiny, a < vec3f(BVH_MIN_DIR_COMPONENT));
     return BvhRay(ray.origin, 1.0 / safe, bvh_axis(kx) - sx * ez, bvh_axis(ky) - sy * ez, sz * ez);
+}
+
+// The ray in instance `i`'s space, ready for traversal.
+fn bvh_instance_ray(ray: Ray, instance: BvhInstance) -> BvhRay {
+    let o = vec4f(ray.origin, 1.0);
+    let d = vec4f(ray.dir, 0.0);
+    let origin = vec3f(dot(instance.row0, o), dot(instance.row1, o), dot(instance.row2, o));
+    let dir = vec3f(dot(instance.row0, d), dot(instance.row1, d), dot(instance.row2, d));
+    return bvh_ray(Ray(origin, dir));
 }
 
 fn bvh_min3(v: vec3f) -> f32 {
@@ -159,14 +184,18 @@ fn bvh_accept(i: u32, u: f32, v: f32) -> bool {
 // What a visit needs of a node, (left_first << 3) | count, kept from the parent's fetch of both
 // children so that visiting a node loads nothing. On lavapipe every storage load of a lane-varying
 // address is a scalar load per lane, so loads dominate traversal cost. (left_first < 2^29 and
-// count <= 4 are guaranteed by the builder.)
+// count <= 4 or BVH_INSTANCE_LEAF are guaranteed by the builders.)
 fn bvh_node_ref(n: BvhNode) -> u32 {
     return (n.left_first << 3u) | n.count;
 }
 
 // Closest hit with tmin < t < tmax (see the contract above).
 fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
-    let r = bvh_ray(ray);
+    let world = bvh_ray(ray);
+    var r = world;
+    // While inside an instance: the stack depth at which it was entered.
+    var in_instance = false;
+    var instance_sp = 0u;
     var hit = Hit(FLT_MAX, BVH_NO_HIT, 0.0, 0.0);
     var t_best = tmax;
     // Deferred far children and their entry distances, skipped when a closer hit was found since.
@@ -184,6 +213,10 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
                 break;
             }
             sp -= 1u;
+            if in_instance && sp < instance_sp {
+                r = world;
+                in_instance = false;
+            }
             if stack_t[sp] >= t_best {
                 continue;
             }
@@ -192,6 +225,15 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
         have_current = false;
         let first = current >> 3u;
         let count = current & 7u;
+        if count == BVH_INSTANCE_LEAF {
+            let instance = bvh_instances[first];
+            r = bvh_instance_ray(ray, instance);
+            in_instance = true;
+            instance_sp = sp;
+            current = bvh_node_ref(bvh_nodes[instance.root]);
+            have_current = true;
+            continue;
+        }
         if count > 0u {
             for (var i = first; i < first + count; i++) {
                 let h = bvh_triangle(r, i, tmin, t_best);
@@ -227,7 +269,10 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
 
 // Whether anything is hit with tmin < t < tmax; returns at the first accepted hit.
 fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
-    let r = bvh_ray(ray);
+    let world = bvh_ray(ray);
+    var r = world;
+    var in_instance = false;
+    var instance_sp = 0u;
     var stack: array<u32, BVH_STACK_SIZE>;
     var sp = 0u;
     let root = bvh_nodes[0];
@@ -239,11 +284,24 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
                 break;
             }
             sp -= 1u;
+            if in_instance && sp < instance_sp {
+                r = world;
+                in_instance = false;
+            }
             current = stack[sp];
         }
         have_current = false;
         let first = current >> 3u;
         let count = current & 7u;
+        if count == BVH_INSTANCE_LEAF {
+            let instance = bvh_instances[first];
+            r = bvh_instance_ray(ray, instance);
+            in_instance = true;
+            instance_sp = sp;
+            current = bvh_node_ref(bvh_nodes[instance.root]);
+            have_current = true;
+            continue;
+        }
         if count > 0u {
             for (var i = first; i < first + count; i++) {
                 let h = bvh_triangle(r, i, tmin, tmax);

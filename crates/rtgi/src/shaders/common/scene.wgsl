@@ -106,6 +106,8 @@ struct SceneInfo {
 // Environment-map sampling table (gpu/scene.rs `environment_cdf`): height marginal CDF values over rows,
 // then width conditional CDF values per row.
 @group(0) @binding(13) var<storage, read> env_cdf: array<f32>;
+// The instances of a two-level BVH (moving rigid meshes; one unused entry for a static scene).
+@group(0) @binding(14) var<storage, read> bvh_instances: array<BvhInstance>;
 
 const MATERIAL_MASK: u32 = 0x00ffffffu;
 const TANGENT_FLIP_BIT: u32 = 0x80000000u;

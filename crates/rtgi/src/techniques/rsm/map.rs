@@ -263,8 +263,9 @@ impl ReflectiveShadowMap {
     /// maps render again on the next [`Self::render`]; the environment does not bounce in RSMs. Returns
     /// whether the maps will change.
     pub fn scene_changed(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene, change: SceneChange) -> bool {
-        // The GPU scene keeps the count and kinds of its lights, so the views keep their layers.
-        if change != SceneChange::Lights || gpu_scene.lights.is_empty() {
+        // The GPU scene keeps the count and kinds of its lights, so the views keep their layers. Moved
+        // geometry changes the bounds the views frame; `render` sees the new geometry version.
+        if change == SceneChange::Environment || gpu_scene.lights.is_empty() {
             return false;
         }
         let views = rsm_views(&gpu_scene.lights, gpu_scene.bounds(), self.size);
