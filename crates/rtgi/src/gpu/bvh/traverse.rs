@@ -119,6 +119,12 @@ impl RayData {
 }
 
 impl Bvh {
+    /// Entering the instance of leaf `node`: the ray in its space and its bottom level's root.
+    fn enter_instance(&self, node: &BvhNode, ray: &Ray) -> (RayData, Option<u32>) {
+        let instance = &self.instances[node.left_first as usize];
+        (RayData::new(&instance.ray_to_object(ray)), Some(instance.root))
+    }
+
     /// Closest hit with `tmin < t < tmax`; alpha-tested triangles count as opaque.
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
         self.intersect_with(ray, tmin, tmax, |_, _, _| true)
@@ -163,10 +169,8 @@ impl Bvh {
             };
             let node = &self.nodes[index as usize];
             if node.is_instance() {
-                let instance = &self.instances[node.left_first as usize];
-                r = RayData::new(&instance.ray_to_object(ray));
+                (r, current) = self.enter_instance(node, ray);
                 instance_sp = Some(sp);
-                current = Some(instance.root);
                 continue;
             }
             if node.is_leaf() {
@@ -234,10 +238,8 @@ impl Bvh {
             };
             let node = &self.nodes[index as usize];
             if node.is_instance() {
-                let instance = &self.instances[node.left_first as usize];
-                r = RayData::new(&instance.ray_to_object(ray));
+                (r, current) = self.enter_instance(node, ray);
                 instance_sp = Some(sp);
-                current = Some(instance.root);
                 continue;
             }
             if node.is_leaf() {

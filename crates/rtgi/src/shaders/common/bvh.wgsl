@@ -116,13 +116,20 @@ fn bvh_ray(ray: Ray) -> BvhRay {
     return BvhRay(ray.origin, 1.0 / safe, bvh_axis(kx) - sx * ez, bvh_axis(ky) - sy * ez, sz * ez);
 }
 
-// The ray in instance `i`'s space, ready for traversal.
-fn bvh_instance_ray(ray: Ray, instance: BvhInstance) -> BvhRay {
+struct BvhInstanceEntry {
+    ray: BvhRay,
+    // Node reference of the instance's bottom-level root.
+    root: u32,
+}
+
+// Entering instance `i`: the ray in its space, ready for traversal, and where traversal goes on.
+fn bvh_enter_instance(ray: Ray, i: u32) -> BvhInstanceEntry {
+    let instance = bvh_instances[i];
     let o = vec4f(ray.origin, 1.0);
     let d = vec4f(ray.dir, 0.0);
     let origin = vec3f(dot(instance.row0, o), dot(instance.row1, o), dot(instance.row2, o));
     let dir = vec3f(dot(instance.row0, d), dot(instance.row1, d), dot(instance.row2, d));
-    return bvh_ray(Ray(origin, dir));
+    return BvhInstanceEntry(bvh_ray(Ray(origin, dir)), bvh_node_ref(bvh_nodes[instance.root]));
 }
 
 fn bvh_min3(v: vec3f) -> f32 {
@@ -226,11 +233,11 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
         let first = current >> 3u;
         let count = current & 7u;
         if count == BVH_INSTANCE_LEAF {
-            let instance = bvh_instances[first];
-            r = bvh_instance_ray(ray, instance);
+            let entry = bvh_enter_instance(ray, first);
+            r = entry.ray;
+            current = entry.root;
             in_instance = true;
             instance_sp = sp;
-            current = bvh_node_ref(bvh_nodes[instance.root]);
             have_current = true;
             continue;
         }
@@ -294,11 +301,11 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
         let first = current >> 3u;
         let count = current & 7u;
         if count == BVH_INSTANCE_LEAF {
-            let instance = bvh_instances[first];
-            r = bvh_instance_ray(ray, instance);
+            let entry = bvh_enter_instance(ray, first);
+            r = entry.ray;
+            current = entry.root;
             in_instance = true;
             instance_sp = sp;
-            current = bvh_node_ref(bvh_nodes[instance.root]);
             have_current = true;
             continue;
         }
