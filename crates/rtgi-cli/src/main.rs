@@ -33,7 +33,7 @@ enum Command {
     // A repeated option overrides the earlier one, so wrappers (scripts/demo.sh) can pass defaults first
     // and the user's arguments after them.
     #[command(args_override_self = true)]
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// List the built-in scenes and the techniques with their parameters.
     List,
     /// Render (or reuse from the cache) a path-traced reference EXR.

@@ -60,6 +60,11 @@ pub struct RenderArgs {
     /// timestamps) or `passes` (one submission per pass, waited for: per-pass wall times, slower).
     #[arg(long, default_value = "frame", value_name = "MODE")]
     timing: String,
+    /// Where frames sample within their pixels: `none` (pixel centres, images compare pixel for
+    /// pixel), `halton` (a new sub-pixel position every frame, 16-frame Halton (2,3) cycle: accumulated
+    /// frames are anti-aliased) or a fixed offset `X,Y` in pixels, each in [-0.5, 0.5).
+    #[arg(long, default_value = "none", value_name = "MODE")]
+    jitter: String,
     /// Also write the render statistics as JSON.
     #[arg(long, value_name = "FILE.json")]
     stats: Option<PathBuf>,
@@ -98,6 +103,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("--accumulate must be at least 1");
     }
     let timing: TimingMode = args.timing.parse().map_err(|e| anyhow!("--timing {e}"))?;
+    let jitter: rtgi::renderer::Jitter = args.jitter.parse().map_err(|e| anyhow!("--jitter: {e}"))?;
     let aovs = args
         .aov
         .iter()
@@ -147,6 +153,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let steps = if sequence.is_some() { args.frames * args.accumulate } else { args.frames };
     let bar = progress_bar(steps);
     let result = (|| -> anyhow::Result<()> {
+        renderer.set_jitter(jitter)?;
         renderer.set_time(args.time)?;
         for frame in 0..args.frames {
             if let Some(pattern) = &sequence {

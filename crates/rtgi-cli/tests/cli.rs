@@ -90,6 +90,14 @@ fn unsupported_output_format_is_refused_before_rendering() {
 }
 
 #[test]
+fn bad_jitter_is_an_error() {
+    let line = expect_error(&rtgi(&["render", "--jitter", "sometimes"]));
+    assert!(line.contains("--jitter") && line.contains("halton"), "{line}");
+    let line = expect_error(&rtgi(&["render", "--size", "16x16", "--jitter", "0.5,0", "--out", "j.exr"]));
+    assert!(line.contains("[-0.5, 0.5)"), "{line}");
+}
+
+#[test]
 fn set_without_equals_is_an_error() {
     let line = expect_error(&rtgi(&["render", "--set", "novalue"]));
     assert!(line.contains("--set 'novalue'") && line.contains("key=value"), "{line}");

@@ -49,6 +49,68 @@ pub struct RendererSettings {
     pub timing: TimingMode,
 }
 
+/// Where in its pixel each frame samples (the frame uniforms' `jitter`): the G-buffer and primary rays
+/// sample pixel centre + jitter, and motion vectors stay those of the unjittered projection, so
+/// history lookups need no correction.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Jitter {
+    /// Pixel centres: every technique's images compare pixel for pixel (the default).
+    #[default]
+    None,
+    /// One offset in pixels, each component in [-0.5, 0.5).
+    Fixed(glam::Vec2),
+    /// The Halton (2, 3) sequence over 16 frames, by frame counter: accumulated frames box-filter
+    /// each pixel (anti-aliasing), and temporal techniques get a new sub-pixel position every frame.
+    Halton,
+}
+
+/// Length of the [`Jitter::Halton`] cycle.
+pub const JITTER_CYCLE: u32 = 16;
+
+impl Jitter {
+    /// The offset of frame `frame_counter`.
+    pub fn offset(self, frame_counter: u32) -> glam::Vec2 {
+        match self {
+            Jitter::None => glam::Vec2::ZERO,
+            Jitter::Fixed(o) => o,
+            Jitter::Halton => {
+                let i = frame_counter % JITTER_CYCLE + 1;
+                glam::Vec2::new(radical_inverse(i, 2), radical_inverse(i, 3)) - 0.5
+            }
+        }
+    }
+}
+
+impl std::str::FromStr for Jitter {
+    type Err = String;
+    /// `none`, `halton`, or a fixed offset `X,Y` in pixels.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            "none" => Ok(Jitter::None),
+            "halton" => Ok(Jitter::Halton),
+            other => {
+                let parsed: Option<Vec<f32>> = other.split(',').map(|c| c.trim().parse().ok()).collect();
+                match parsed.as_deref() {
+                    Some([x, y]) => Ok(Jitter::Fixed(glam::Vec2::new(*x, *y))),
+                    _ => Err(format!(
+                        "unknown jitter '{other}'; use 'none', 'halton' or an offset 'X,Y' in pixels"
+                    )),
+                }
+            }
+        }
+    }
+}
+
+fn radical_inverse(mut i: u32, base: u32) -> f32 {
+    let (mut inverse, mut scale) = (0.0f32, 1.0 / base as f32);
+    while i > 0 {
+        inverse += (i % base) as f32 * scale;
+        i /= base;
+        scale /= base as f32;
+    }
+    inverse
+}
+
 /// How often the renderer had to redo setup work: a steady run shows none after the first frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct RendererCounters {
@@ -214,6 +276,7 @@ pub struct Renderer {
     previous_time: Option<f32>,
     camera: Camera,
     camera_override: bool,
+    jitter: Jitter,
     previous_view_proj: Option<Mat4>,
     frame_counter: u32,
     sample_index: u32,
@@ -269,6 +332,7 @@ impl Renderer {
             previous_time: None,
             camera,
             camera_override: false,
+            jitter: Jitter::None,
             previous_view_proj: None,
             frame_counter: 0,
             sample_index: 0,
@@ -331,6 +395,27 @@ impl Renderer {
     /// on its own with exactly the samples it had in the sequence.
     pub fn set_frame_counter(&mut self, n: u32) {
         self.frame_counter = n;
+    }
+
+    /// Sets where the next frames sample within their pixels. Changing it restarts accumulation unless
+    /// it is [`Jitter::Halton`], whose frames are meant to accumulate.
+    pub fn set_jitter(&mut self, jitter: Jitter) -> Result<(), RenderError> {
+        if let Jitter::Fixed(o) = jitter
+            && !(o.cmpge(glam::Vec2::splat(-0.5)).all() && o.cmplt(glam::Vec2::splat(0.5)).all())
+        {
+            return Err(RenderError::InvalidSettings(format!(
+                "jitter {o} is outside the pixel: each component must be in [-0.5, 0.5)"
+            )));
+        }
+        if jitter != self.jitter {
+            self.jitter = jitter;
+            self.restart_accumulation();
+        }
+        Ok(())
+    }
+
+    pub fn jitter(&self) -> Jitter {
+        self.jitter
     }
 
     /// Setup work done so far.
@@ -615,7 +700,7 @@ impl Renderer {
             prev_view_proj: self.previous_view_proj.unwrap_or(view_proj),
             time: self.time,
             delta_time: self.previous_time.map_or(0.0, |p| self.time - p),
-            jitter: glam::Vec2::ZERO,
+            jitter: self.jitter.offset(self.frame_counter),
             frame_counter: self.frame_counter,
             sample_index: self.sample_index,
             history_valid: self.history_valid,

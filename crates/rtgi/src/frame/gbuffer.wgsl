@@ -32,7 +32,10 @@ fn vs_main(
     @location(4) uv: vec2f,
     @builtin(instance_index) mesh: u32,
 ) -> GBufferVertexOut {
-    let v = scene_vertex(frame.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
+    var v = scene_vertex(frame.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
+    // Shift the image by -jitter so that pixel centres sample centre + jitter, like primary rays. Motion
+    // stays unjittered: prev_clip below uses the previous view-projection as it is.
+    v.clip = vec4f(v.clip.xy - vec2f(2.0, -2.0) * frame.jitter / vec2f(frame.size) * v.clip.w, v.clip.zw);
     var out = GBufferVertexOut(v.clip, v.world, v.normal, v.tangent, v.uv, v.material, vec4f(0.0), 0u);
     out.prev_clip = frame.prev_view_proj * (mesh_motion[mesh] * vec4f(position, 1.0));
     out.mesh = mesh;

@@ -31,7 +31,8 @@ pub struct FrameUniforms {
     /// Frames accumulated into the current image since the view or the scene last changed: progressive
     /// techniques average over it and restart at 0.
     pub sample_index: u32,
-    /// Sub-pixel offset of the primary rays, in pixels (0 unless a technique asks for jitter).
+    /// Sub-pixel position sampled this frame relative to pixel centres, in pixels (y down; 0 unless
+    /// jitter is on, see `renderer::Jitter`).
     pub jitter: [f32; 2],
     /// Scene time in seconds and the time since the previous frame.
     pub time: f32,

@@ -37,14 +37,17 @@ fn accumulate_mean(previous_mean: vec3f, sample: vec3f, n: u32) -> vec3f {
     return select(mix(previous_mean, sample, 1.0 / (f32(n) + 1.0)), sample, n == 0u);
 }
 
-// Unit direction of the primary ray through the centre of `pixel`.
-fn primary_ray_direction(pixel: vec2u) -> vec3f {
-    let ndc = vec2f(
-        (f32(pixel.x) + 0.5) / f32(frame.size.x) * 2.0 - 1.0,
-        1.0 - (f32(pixel.y) + 0.5) / f32(frame.size.y) * 2.0,
-    );
+// Unit direction of the primary ray through framebuffer position `xy` (pixels, y down, unjittered).
+fn primary_ray_through(xy: vec2f) -> vec3f {
+    let ndc = vec2f(xy.x / f32(frame.size.x) * 2.0 - 1.0, 1.0 - xy.y / f32(frame.size.y) * 2.0);
     let p = frame.inv_view_proj * vec4f(ndc, 0.5, 1.0);
     return normalize(p.xyz / p.w - frame.camera_position);
+}
+
+// Unit direction of the primary ray of `pixel`: through its centre plus this frame's jitter, where
+// the G-buffer samples it too.
+fn primary_ray_direction(pixel: vec2u) -> vec3f {
+    return primary_ray_through(vec2f(pixel) + 0.5 + frame.jitter);
 }
 
 // A G-buffer texel decoded.

@@ -37,13 +37,7 @@ fn mis_weight(pdf_this: f32, pdf_other: f32) -> f32 {
 fn trace_path(pixel: vec2u, rng: ptr<function, Rng>, rays: ptr<function, u32>) -> vec3f {
     var dir = primary_ray_direction(pixel);
     if PIXEL_JITTER {
-        let j = rng_next2(rng);
-        let ndc = vec2f(
-            (f32(pixel.x) + j.x) / f32(frame.size.x) * 2.0 - 1.0,
-            1.0 - (f32(pixel.y) + j.y) / f32(frame.size.y) * 2.0,
-        );
-        let p = frame.inv_view_proj * vec4f(ndc, 0.5, 1.0);
-        dir = normalize(p.xyz / p.w - frame.camera_position);
+        dir = primary_ray_through(vec2f(pixel) + rng_next2(rng));
     }
     var ray = Ray(frame.camera_position, dir);
     var throughput = vec3f(1.0);
