@@ -953,6 +953,17 @@ impl GpuScene {
         })
     }
 
+    /// Whether the BVH has two levels (meshes that may move).
+    pub fn has_instances(&self) -> bool {
+        self.moving.is_some()
+    }
+
+    /// `defines` plus the BVH variant this scene needs (`BVH_INSTANCES`, see `common/bvh.wgsl`): every
+    /// pipeline that traces rays is built with them.
+    pub fn bvh_defines(&self, defines: crate::shaders::Defines) -> crate::shaders::Defines {
+        defines.bool("BVH_INSTANCES", self.has_instances())
+    }
+
     /// Moves meshes in place: `scene` is the uploaded scene posed anew, in which the meshes `moved`
     /// (flagged moving at upload) changed; `from_upload[m]` maps mesh m's geometry as uploaded to where
     /// it is now. Rewrites their vertices and indices, rebuilds the BVH's top level, the bounds and (when

@@ -48,6 +48,12 @@ impl Defines {
         Self::default()
     }
 
+    /// Whether a constant `name` is defined.
+    pub fn has(&self, name: &str) -> bool {
+        let prefix = format!("const {name}:");
+        self.lines.iter().any(|l| l.starts_with(&prefix))
+    }
+
     pub fn u32(mut self, name: &str, value: u32) -> Self {
         self.lines.push(format!("const {name}: u32 = {value}u;"));
         self
@@ -110,14 +116,21 @@ fn append_resolved(
     Ok(())
 }
 
-/// Resolves the imports of `source` (named `shader` in errors) and prepends `defines`.
+/// Resolves the imports of `source` (named `shader` in errors) and prepends `defines`. A shader that
+/// includes `common/bvh.wgsl` without defining `BVH_INSTANCES` gets the traversal that handles
+/// instances (correct for every scene; `GpuScene::bvh_defines` selects the faster single-level one
+/// where a scene has no instances).
 pub fn compose(shader: &str, source: &str, defines: &Defines) -> Result<String, ShaderError> {
     let mut out = String::new();
     for line in &defines.lines {
         out.push_str(line);
         out.push('\n');
     }
-    append_resolved(shader, source, &mut HashSet::new(), &mut Vec::new(), &mut out)?;
+    let mut seen = HashSet::new();
+    append_resolved(shader, source, &mut seen, &mut Vec::new(), &mut out)?;
+    if seen.contains("common/bvh.wgsl") && !defines.has("BVH_INSTANCES") {
+        out.insert_str(0, "const BVH_INSTANCES: bool = true;\n");
+    }
     Ok(out)
 }
 

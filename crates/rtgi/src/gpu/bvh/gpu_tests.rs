@@ -117,7 +117,9 @@ impl Harness {
     }
 
     fn with_source(ctx: &GpuContext, bvh: &Bvh, mode: u32, source: &str) -> Result<Harness, GpuError> {
-        let module = shaders::create_module(ctx, "bvh harness", source, &Defines::new().u32("MODE", mode))
+        // The traversal a scene with this BVH gets: single-level unless it has instances.
+        let defines = Defines::new().u32("MODE", mode).bool("BVH_INSTANCES", !bvh.instances.is_empty());
+        let module = shaders::create_module(ctx, "bvh harness", source, &defines)
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("bvh harness"),
@@ -347,9 +349,9 @@ pub(crate) fn check_gpu_traversal_of(
             "{label}: GPU disagrees with {name}: {rep:?} (see stderr)"
         );
         assert!(rep.ties * 20 <= rep.rays, "{label}: {} ties in {} rays vs {name}", rep.ties, rep.rays);
-        // Measured on the instanced scene (lavapipe): 3 of 6000 vs the CPU BVH, 10 vs brute force;
-        // bound about 2x the larger.
-        assert!(rep.boundary * 300 <= rep.rays, "{label}: {} boundary cases vs {name}", rep.boundary);
+        // Measured on the instanced scene (lavapipe): 2 rays of 6000 vs the CPU BVH, 7 vs brute force;
+        // bound about 2x the larger (15).
+        assert!(rep.boundary * 400 <= rep.rays, "{label}: {} boundary cases vs {name}", rep.boundary);
     }
     (bvh_ref, brute_ref)
 }
@@ -363,7 +365,20 @@ fn bvh_harness_shader_validates() {
     for mode in 0..3 {
         let module = shaders::validate("bvh harness", HARNESS, &Defines::new().u32("MODE", mode));
         assert!(module.global_variables.iter().any(|(_, g)| g.name.as_deref() == Some("bvh_nodes")));
+        for instances in [false, true] {
+            shaders::validate(
+                "bvh harness",
+                HARNESS,
+                &Defines::new().u32("MODE", mode).bool("BVH_INSTANCES", instances),
+            );
+        }
     }
+    // Without a definition the traversal handles instances (correct for every scene), defined once.
+    let composed = shaders::compose("bvh harness", HARNESS, &Defines::new()).expect("compose");
+    assert_eq!(composed.matches("const BVH_INSTANCES: bool = true;").count(), 1);
+    let composed = shaders::compose("bvh harness", HARNESS, &Defines::new().bool("BVH_INSTANCES", false))
+        .expect("compose");
+    assert_eq!(composed.matches("const BVH_INSTANCES").count(), 1);
 }
 
 #[test]

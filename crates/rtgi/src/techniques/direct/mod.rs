@@ -103,7 +103,7 @@ impl DirectLighting {
             ctx,
             "direct",
             include_str!("direct.wgsl"),
-            defines,
+            setup.gpu_scene.bvh_defines(defines),
             "main",
             &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
         )?;

@@ -485,7 +485,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
                 ctx,
                 "vpl generation",
                 &format!("{VPL_WGSL}\n{}", include_str!("generate.wgsl")),
-                Defines::new(),
+                setup.gpu_scene.bvh_defines(Defines::new()),
                 "main",
                 &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &group_layout],
             )?;
@@ -536,9 +536,11 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         ctx,
         "igi gather",
         &format!("{VPL_WGSL}\n{}", include_str!("gather.wgsl")),
-        gather_defines(variant, ix, iy, slots_per_set, p.float("g_max") as f32)
-            .bool("COMPENSATE", p.bool("bias_compensation"))
-            .bool("DIRECT_RASTER", direct_raster),
+        setup.gpu_scene.bvh_defines(
+            gather_defines(variant, ix, iy, slots_per_set, p.float("g_max") as f32)
+                .bool("COMPENSATE", p.bool("bias_compensation"))
+                .bool("DIRECT_RASTER", direct_raster),
+        ),
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &gather_layout],
     )?;

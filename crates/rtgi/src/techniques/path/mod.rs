@@ -128,7 +128,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         setup.ctx,
         "path",
         include_str!("path.wgsl"),
-        defines,
+        setup.gpu_scene.bvh_defines(defines),
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
     )?;
