@@ -113,7 +113,7 @@ impl MipGenerator {
 
     /// Records into `encoder` the passes that fill mip levels 1.. of `texture` from level 0, each level
     /// from the one above (every layer of a 2-D array on its own). The texture needs `TEXTURE_BINDING`
-    /// and `STORAGE_BINDING` usage and a format of [`FORMATS`]; nothing is submitted.
+    /// and `STORAGE_BINDING` usage and a format of `FORMATS`; nothing is submitted.
     pub fn record(
         &self,
         ctx: &GpuContext,

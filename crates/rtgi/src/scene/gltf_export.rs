@@ -27,7 +27,7 @@ use crate::error::SceneError;
 
 pub use compare::{assert_scenes_equivalent, scene_differences};
 
-/// Key in `scenes[0].extras` holding the environment (see [`EnvironmentJson`]).
+/// Key in `scenes[0].extras` holding the environment (see `EnvironmentJson`).
 pub const ENVIRONMENT_KEY: &str = "rtgi_environment";
 /// Key in `scenes[0].extras` holding the index of the node whose rotation turns the sun of a sky
 /// environment (see [`crate::scene::animation::Bindings::sun`]).

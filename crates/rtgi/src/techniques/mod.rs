@@ -130,8 +130,9 @@ pub trait Technique {
 
     /// Something the technique may have derived state from changed in place: the GPU scene's light
     /// buffer and [`GpuScene::lights_version`], its environment (scene info, baked sky, sampling
-    /// table), or its geometry ([`SceneChange::Geometry`]) are already updated. Returns whether the technique brought itself up to date; `false`
-    /// makes the renderer create it anew, which is always correct but recompiles its pipelines.
+    /// table), or its geometry ([`SceneChange::Geometry`]) are already updated. Returns whether the
+    /// technique brought itself up to date; `false` makes the renderer create it anew, which is always
+    /// correct but recompiles its pipelines.
     fn scene_changed(
         &mut self,
         ctx: &GpuContext,

@@ -209,7 +209,7 @@ fn hash(mut x: u32) -> u32 {
 /// Offset (r_max·ξ1·sin 2πξ2, r_max·ξ1·cos 2πξ2); the weight turns a sample into an estimate of the sum
 /// over the disc's π·r_max²·size² texels, divided by the samples a pixel takes: its density is
 /// 1/(2π·r·r_max) per unit area, so the unbiased weight is 2π·r_max²·size²·ξ1 / n; the paper's ξ1² is
-/// scaled by 3 (E[ξ1²] = 1/3) instead, which is exact when the texels are all alike.
+/// scaled by 3 (E\[ξ1²\] = 1/3) instead, which is exact when the texels are all alike.
 pub fn gather_samples(s: &Sampling, seed: u32, frame: u32) -> Vec<[f32; 4]> {
     let scramble =
         (hash(seed ^ 0x9e37_79b9), hash(hash(seed).wrapping_add(frame).wrapping_mul(0x85eb_ca6b) ^ 7));
