@@ -13,6 +13,7 @@ pub mod reference;
 pub mod render;
 pub mod renderer;
 pub mod scene;
+pub mod sequences;
 pub mod sh;
 pub mod shaders;
 pub mod techniques;

@@ -75,7 +75,8 @@ impl Jitter {
             Jitter::Fixed(o) => o,
             Jitter::Halton => {
                 let i = frame_counter % JITTER_CYCLE + 1;
-                glam::Vec2::new(radical_inverse(i, 2), radical_inverse(i, 3)) - 0.5
+                let halton = |base| crate::sequences::radical_inverse(base, i) as f32;
+                glam::Vec2::new(halton(2), halton(3)) - 0.5
             }
         }
     }
@@ -99,16 +100,6 @@ impl std::str::FromStr for Jitter {
             }
         }
     }
-}
-
-fn radical_inverse(mut i: u32, base: u32) -> f32 {
-    let (mut inverse, mut scale) = (0.0f32, 1.0 / base as f32);
-    while i > 0 {
-        inverse += (i % base) as f32 * scale;
-        i /= base;
-        scale /= base as f32;
-    }
-    inverse
 }
 
 /// How often the renderer had to redo setup work: a steady run shows none after the first frame.

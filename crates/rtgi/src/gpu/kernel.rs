@@ -93,16 +93,7 @@ pub fn run_kernel(
 mod tests {
     use super::*;
     use crate::gpu::GpuOptions;
-
-    fn radical_inverse(base: u32, mut i: u32) -> f64 {
-        let (mut f, mut r) = (1.0 / f64::from(base), 0.0);
-        while i > 0 {
-            r += f * f64::from(i % base);
-            i /= base;
-            f /= f64::from(base);
-        }
-        r
-    }
+    use crate::sequences::radical_inverse;
 
     /// `halton` of `common/random.wgsl`: the radical inverse in the dim-th prime base, rotated.
     #[test]
