@@ -139,11 +139,6 @@ impl InstancedBvh {
         self.top.instance_meshes.len()
     }
 
-    /// The top-level nodes, the part of [`Self::bvh`]'s nodes that [`Self::place`] rewrites.
-    pub fn top_level(&self) -> &[BvhNode] {
-        &self.top.nodes
-    }
-
     /// [`TopLevel::place`], copied into the flattened tree.
     pub fn place(&mut self, object_to_world: &[Mat4]) {
         self.top.place(object_to_world);

@@ -347,26 +347,8 @@ impl GpuBvh {
         }
     }
 
-    /// Layout entries for `bvh_nodes`, `bvh_tris` and `bvh_instances` at `first_binding` and the two
-    /// bindings after it.
-    pub fn layout_entries(
-        first_binding: u32,
-        visibility: wgpu::ShaderStages,
-    ) -> [wgpu::BindGroupLayoutEntry; 3] {
-        let entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        [entry(first_binding), entry(first_binding + 1), entry(first_binding + 2)]
-    }
-
-    /// Bind group entries matching [`GpuBvh::layout_entries`].
+    /// Bind group entries for `bvh_nodes`, `bvh_tris` and `bvh_instances` at `first_binding` and the
+    /// two bindings after it (storage, read-only).
     pub fn bind_entries(&self, first_binding: u32) -> [wgpu::BindGroupEntry<'_>; 3] {
         [
             wgpu::BindGroupEntry { binding: first_binding, resource: self.nodes.as_entire_binding() },

@@ -391,7 +391,7 @@ fn instanced_bvh_matches_brute_force_on_the_moved_geometry() {
     let mut bvh = InstancedBvh::build(&scene.tris, &scene.moving).expect("build");
     // Five instances (the empty mesh is none) and the static part.
     assert_eq!(bvh.instance_count(), 5);
-    assert_eq!(bvh.top_level().len(), 2 * 6 - 1);
+    assert_eq!(bvh.top.nodes.len(), 2 * 6 - 1);
     bvh.place(&scene.transforms);
     let n = scene.tris.triangles.len();
     let seen = walk_instanced(&bvh.bvh, n);
