@@ -3,6 +3,7 @@
 
 use wgpu::util::DeviceExt;
 
+use super::resources::buffer_layout_entry;
 use super::{GpuContext, GpuError, readback};
 use crate::shaders::{Defines, create_module};
 
@@ -40,15 +41,12 @@ pub fn run_kernel(
     let module =
         create_module(ctx, name, source, &Defines::new()).map_err(|e| GpuError::Other(e.to_string()))?;
     // An explicit layout: the automatic one would drop a binding the kernel does not read.
-    let entry = |binding, read_only| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
+    let entry = |binding, read_only| {
+        buffer_layout_entry(
+            binding,
+            wgpu::ShaderStages::COMPUTE,
+            wgpu::BufferBindingType::Storage { read_only },
+        )
     };
     let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(name),

@@ -13,6 +13,20 @@
 
 use super::{GpuContext, GpuError, features};
 
+/// A bind-group layout entry for a whole buffer (`Uniform` or `Storage`, no dynamic offset).
+pub fn buffer_layout_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    ty: wgpu::BufferBindingType,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
 /// A texture request: 2-D, 2-D array (layers) or 3-D, with a mip chain, usages and an optional clear.
 #[derive(Clone, Debug)]
 pub struct TextureBuilder<'a> {

@@ -9,6 +9,7 @@ use glam::{Mat4, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
 use super::bvh::{Bvh, GpuBvh, InstancedBvh, SceneTriangles, TopLevel};
+use super::resources::buffer_layout_entry;
 use super::{GpuContext, GpuError};
 use crate::scene::{AlphaMode, Environment, Light, Scene};
 
@@ -132,16 +133,11 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let out_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("environment bake"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
+            entries: &[buffer_layout_entry(
+                0,
+                wgpu::ShaderStages::COMPUTE,
+                wgpu::BufferBindingType::Storage { read_only: false },
+            )],
         });
         let out = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("environment bake"),
@@ -363,16 +359,11 @@ fn create_texture_array(
 }
 
 fn storage_layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
+    buffer_layout_entry(
         binding,
-        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+        wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        wgpu::BufferBindingType::Storage { read_only: true },
+    )
 }
 
 fn texture_layout_entry(
@@ -398,16 +389,7 @@ pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("scene"),
         entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: all,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
+            buffer_layout_entry(0, all, wgpu::BufferBindingType::Uniform),
             storage_layout_entry(1),
             storage_layout_entry(2),
             storage_layout_entry(3),

@@ -2,6 +2,7 @@
 //! 1 (frame) and 2 (the technique's own resources), and the textures and buffers those passes use.
 
 use crate::gpu::GpuContext;
+use crate::gpu::resources::buffer_layout_entry;
 use crate::shaders::{self, Defines, ShaderError};
 
 /// Workgroup edge of screen-space compute passes (passed to WGSL as `TILE`).
@@ -66,30 +67,12 @@ pub fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu
 
 /// A bind-group layout entry for a storage buffer.
 pub fn storage_buffer_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    buffer_layout_entry(binding, wgpu::ShaderStages::COMPUTE, wgpu::BufferBindingType::Storage { read_only })
 }
 
 /// A bind-group layout entry for a uniform buffer.
 pub fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    buffer_layout_entry(binding, wgpu::ShaderStages::COMPUTE, wgpu::BufferBindingType::Uniform)
 }
 
 /// A bind group whose entries are `resources` in binding order 0, 1, 2...

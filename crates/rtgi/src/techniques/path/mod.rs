@@ -13,7 +13,7 @@ use crate::params::{ParamKind, ParamSpec};
 use crate::shaders::Defines;
 use crate::techniques::RenderError;
 
-use super::compute::{self, DispatchSlots, storage_texture_entry};
+use super::compute::{self, DispatchSlots, storage_buffer_entry, storage_texture_entry};
 use super::{FrameContext, FrameNeeds, Measured, Technique, TechniqueInfo, TechniqueSetup};
 
 const PARAMS: &[ParamSpec] = &[
@@ -86,16 +86,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         label: Some("path"),
         entries: &[
             storage_texture_entry(0, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
+            storage_buffer_entry(1, false),
             sample_indices.entry(2),
         ],
     });

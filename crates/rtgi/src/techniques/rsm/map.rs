@@ -7,6 +7,7 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use crate::frame::{self, DEPTH_FORMAT, SHADOW_VIEW_STRIDE};
+use crate::gpu::resources::buffer_layout_entry;
 use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL};
 use crate::gpu::{GpuContext, GpuScene, Profiler};
 use crate::scene::Scene;
@@ -113,15 +114,8 @@ fn read_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
         },
         count: None,
     };
-    let buf = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: READ_STAGES,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
+    let buf = |binding| {
+        buffer_layout_entry(binding, READ_STAGES, wgpu::BufferBindingType::Storage { read_only: true })
     };
     ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("rsm read"),
