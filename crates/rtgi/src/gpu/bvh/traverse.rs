@@ -141,8 +141,9 @@ impl Bvh {
     ) -> Option<Hit> {
         let world = RayData::new(ray);
         let mut r = world.clone();
-        // Inside an instance: the stack depth at which it was entered (entries below are world space).
-        let mut instance_sp: Option<usize> = None;
+        // The stack depth at which the current instance was entered: entries below it are world space
+        // (0 in world space, where no entry lies below).
+        let mut instance_sp = 0;
         let mut best: Option<Hit> = None;
         let mut t_best = tmax;
         let mut stack = [(0u32, 0f32); BVH_STACK_SIZE as usize];
@@ -156,9 +157,9 @@ impl Bvh {
                         break;
                     }
                     sp -= 1;
-                    if instance_sp.is_some_and(|s| sp < s) {
+                    if sp < instance_sp {
                         r = world.clone();
-                        instance_sp = None;
+                        instance_sp = 0;
                     }
                     let (i, entry) = stack[sp];
                     if entry >= t_best {
@@ -170,7 +171,7 @@ impl Bvh {
             let node = &self.nodes[index as usize];
             if node.is_instance() {
                 (r, current) = self.enter_instance(node, ray);
-                instance_sp = Some(sp);
+                instance_sp = sp;
                 continue;
             }
             if node.is_leaf() {
@@ -219,7 +220,7 @@ impl Bvh {
     ) -> bool {
         let world = RayData::new(ray);
         let mut r = world.clone();
-        let mut instance_sp: Option<usize> = None;
+        let mut instance_sp = 0;
         let mut stack = [0u32; BVH_STACK_SIZE as usize];
         let mut sp = 0;
         let mut current = r.box_entry(&self.nodes[0], tmin, tmax).map(|_| 0u32);
@@ -229,9 +230,9 @@ impl Bvh {
                 None if sp == 0 => return false,
                 None => {
                     sp -= 1;
-                    if instance_sp.is_some_and(|s| sp < s) {
+                    if sp < instance_sp {
                         r = world.clone();
-                        instance_sp = None;
+                        instance_sp = 0;
                     }
                     stack[sp]
                 }
@@ -239,7 +240,7 @@ impl Bvh {
             let node = &self.nodes[index as usize];
             if node.is_instance() {
                 (r, current) = self.enter_instance(node, ray);
-                instance_sp = Some(sp);
+                instance_sp = sp;
                 continue;
             }
             if node.is_leaf() {

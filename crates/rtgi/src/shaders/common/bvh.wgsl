@@ -205,8 +205,8 @@ fn bvh_node_ref(n: BvhNode) -> u32 {
 fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
     let world = bvh_ray(ray);
     var r = world;
-    // While inside an instance: the stack depth at which it was entered.
-    var in_instance = false;
+    // The stack depth at which the current instance was entered: entries below it are world space
+    // (0 in world space, where no entry lies below).
     var instance_sp = 0u;
     var hit = Hit(FLT_MAX, BVH_NO_HIT, 0.0, 0.0);
     var t_best = tmax;
@@ -225,9 +225,9 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
                 break;
             }
             sp -= 1u;
-            if BVH_INSTANCES && in_instance && sp < instance_sp {
+            if BVH_INSTANCES && sp < instance_sp {
                 r = world;
-                in_instance = false;
+                instance_sp = 0u;
             }
             if stack_t[sp] >= t_best {
                 continue;
@@ -241,7 +241,6 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
             let entry = bvh_enter_instance(ray, first);
             r = entry.ray;
             current = entry.root;
-            in_instance = true;
             instance_sp = sp;
             have_current = true;
             continue;
@@ -283,7 +282,6 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
 fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
     let world = bvh_ray(ray);
     var r = world;
-    var in_instance = false;
     var instance_sp = 0u;
     var stack: array<u32, BVH_STACK_SIZE>;
     var sp = 0u;
@@ -296,9 +294,9 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
                 break;
             }
             sp -= 1u;
-            if BVH_INSTANCES && in_instance && sp < instance_sp {
+            if BVH_INSTANCES && sp < instance_sp {
                 r = world;
-                in_instance = false;
+                instance_sp = 0u;
             }
             current = stack[sp];
         }
@@ -309,7 +307,6 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
             let entry = bvh_enter_instance(ray, first);
             r = entry.ray;
             current = entry.root;
-            in_instance = true;
             instance_sp = sp;
             have_current = true;
             continue;
