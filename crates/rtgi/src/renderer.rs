@@ -469,11 +469,9 @@ impl Renderer {
             let moved: Vec<usize> = (0..pose.mesh_transforms.len())
                 .filter(|&m| pose.mesh_transforms[m] != self.posed.mesh_transforms[m])
                 .collect();
-            // Only the moved meshes are posed anew (as `Scene::posed_with` would pose them).
+            // Only the moved meshes are posed anew.
             for &m in &moved {
-                let (source, t) = (&self.source.meshes[m], pose.mesh_transforms[m]);
-                self.posed.scene.meshes[m] =
-                    if t == Mat4::IDENTITY { source.clone() } else { source.transformed(t) };
+                self.posed.scene.meshes[m] = self.source.meshes[m].posed(pose.mesh_transforms[m]);
             }
             self.posed.mesh_transforms.clone_from(&pose.mesh_transforms);
             let from_upload: Vec<Mat4> = self

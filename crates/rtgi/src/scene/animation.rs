@@ -490,12 +490,7 @@ impl Scene {
 
     /// [`Scene::posed`] for a pose already computed with [`Scene::pose_at`].
     pub fn posed_with(&self, pose: Pose) -> Scene {
-        let meshes = self
-            .meshes
-            .iter()
-            .zip(&pose.mesh_transforms)
-            .map(|(m, &xf)| if xf == Mat4::IDENTITY { m.clone() } else { m.transformed(xf) })
-            .collect();
+        let meshes = self.meshes.iter().zip(&pose.mesh_transforms).map(|(m, &xf)| m.posed(xf)).collect();
         let mut posed = Scene {
             meshes,
             lights: Vec::new(),
@@ -552,6 +547,12 @@ impl Scene {
 }
 
 impl Mesh {
+    /// This mesh where the pose transform `m` puts it: as stored under the identity (no
+    /// renormalisation), else [`Mesh::transformed`].
+    pub fn posed(&self, m: Mat4) -> Mesh {
+        if m == Mat4::IDENTITY { self.clone() } else { self.transformed(m) }
+    }
+
     /// This mesh under the affine transform `m`: positions by `m`, normals by its inverse transpose,
     /// tangents by its linear part (all renormalised), winding and tangent handedness flipped when `m`
     /// mirrors.
