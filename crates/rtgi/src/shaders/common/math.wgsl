@@ -81,10 +81,22 @@ fn equirect_uv(d: vec3f) -> vec2f {
     return vec2f(u, v);
 }
 
+// The largest finite half float: beyond it pack2x16float gives ±∞ (or, in WGSL, an undefined value).
+const HALF_MAX: f32 = 65504.0;
+
 // Four half floats in two words: the storage format of per-pixel intermediate data (SH coefficients,
-// irradiance) that does not need f32 precision.
+// irradiance) that does not need f32 precision. Values beyond the half range saturate instead of turning
+// into ∞, which a filter would spread to the neighbours and a later ×0 would turn into NaN; writers that
+// can overflow (VPL spikes) scale their data into range first (see `fit_half` in igi/gather.wgsl).
 fn pack_half4(v: vec4f) -> vec2u {
-    return vec2u(pack2x16float(v.xy), pack2x16float(v.zw));
+    let c = clamp(v, vec4f(-HALF_MAX), vec4f(HALF_MAX));
+    return vec2u(pack2x16float(c.xy), pack2x16float(c.zw));
+}
+
+// Per channel, the factor that brings a channel whose largest magnitude is `largest` into the half range
+// (1 where it fits): data scaled by it keep their shape across coefficients and lose only magnitude.
+fn half_fit_scale(largest: vec3f) -> vec3f {
+    return select(vec3f(1.0), HALF_MAX / largest, largest > vec3f(HALF_MAX));
 }
 
 fn unpack_half4(p: vec2u) -> vec4f {

@@ -135,7 +135,7 @@ mod tests {
                     half(material[(y * w + x) as usize] as f32),
                     half(set(x, y)),
                     half(1.0),
-                    half(0.0),
+                    half(HALF_MAX),
                 ]);
             }
         }
@@ -179,6 +179,7 @@ mod tests {
                 }
                 assert_eq!(out[i * 4], material[i] as f32, "pixel ({x}, {y}) mixed materials");
                 assert_eq!(out[i * 4 + 2], 1.0, "pixel ({x}, {y}): weights do not sum to one");
+                assert_eq!(out[i * 4 + 3], HALF_MAX, "pixel ({x}, {y}): the largest half did not survive");
                 // Is the whole window (x−1..x+2, y−1..y+2) on the centre's wall?
                 let on_wall = (0..16).all(|k| {
                     let (qx, qy) = (x as i32 - 1 + k % 4, y as i32 - 1 + k / 4);
@@ -199,6 +200,58 @@ mod tests {
         }
         // 477 of 2304 pixels measured (the side walls are seen at grazing angles).
         assert!(interior > (w * h / 6) as usize, "only {interior} pixels had a full window on one wall");
+    }
+
+    const HALF_MAX: f32 = 65504.0;
+
+    const HALF_KERNEL: &str = "#import common/math.wgsl
+@group(0) @binding(0) var<storage, read> input: array<vec4f>;
+@group(0) @binding(1) var<storage, read_write> output: array<vec4f>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= arrayLength(&input) { return; }
+    let v = input[id.x];
+    output[2u * id.x] = unpack_half4(pack_half4(v));
+    let largest = max(abs(v.xyz), vec3f(0.0));
+    output[2u * id.x + 1u] = vec4f(v.xyz * half_fit_scale(largest), 0.0);
+}";
+
+    /// Values beyond the half range saturate when packed (no ±∞ for the filter to spread), values in
+    /// range round to the nearest half, and `half_fit_scale` brings a channel just into range.
+    #[test]
+    fn half_storage_saturates_and_fits_values_beyond_its_range() {
+        let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+        let input: Vec<[f32; 4]> = vec![
+            [1e5, -1e6, 65504.0, 70000.0],
+            [1.0, -2.5, 3e-3, 65519.0],
+            [1e30, 0.0, -1e30, 12.0],
+            [-65504.0, 4e4, 131008.0, 0.5],
+        ];
+        let out = crate::gpu::kernel::run_kernel(
+            &ctx,
+            "half storage",
+            HALF_KERNEL,
+            bytemuck::cast_slice(&input),
+            input.len() as u32,
+            input.len() * 8,
+        )
+        .expect("kernel");
+        for (k, v) in input.iter().enumerate() {
+            for c in 0..4 {
+                let packed = out[8 * k + c];
+                let expected = unhalf(half(v[c].clamp(-HALF_MAX, HALF_MAX)));
+                assert_eq!(packed, expected, "input {k} channel {c}: {} packed as {packed}", v[c]);
+            }
+            for c in 0..3 {
+                let fitted = out[8 * k + 4 + c];
+                let expected = if v[c].abs() > HALF_MAX { HALF_MAX * v[c].signum() } else { v[c] };
+                assert!(
+                    (fitted - expected).abs() <= 1e-6 * HALF_MAX,
+                    "input {k} channel {c}: {} fitted to {fitted}, expected {expected}",
+                    v[c]
+                );
+            }
+        }
     }
 
     #[test]

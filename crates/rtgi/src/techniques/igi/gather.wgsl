@@ -9,7 +9,7 @@
 // Bounded geometry term: when the VPL's part of the geometry term, G = cos θ_vpl / d², exceeds
 // G_MAX (> 0), the VPL's light is scaled by G_MAX / G. (The receiver's cos θ_x is left out so that both
 // variants bound the same thing: the SH variant applies the receiver's cosine only after filtering, and a
-// VPL beside a receiver at a grazing angle would otherwise ring through the band-limited cosine.) the luminance of incident light kept and lost is written to `clamp_stats`. With
+// VPL beside a receiver at a grazing angle would otherwise ring through the band-limited cosine.) The luminance of incident light kept and lost is written to `clamp_stats`, and in its w whether the pixel's data had to be scaled into the half-float range (`fit_half`). With
 // COMPENSATE, one uniformly sampled hemisphere ray per pixel adds back the clamped part (Kollig & Keller
 // 2004, one level): if it hits y with G(x, y) > G_MAX, y's outgoing radiance towards x — its emission
 // (unless direct light comes from rasterisation) plus the same VPLs gathered at y — weighted by
@@ -61,6 +61,30 @@ fn outgoing_from_vpls(y: SurfaceHit, dir: vec3f, first: u32, last: u32, with_emi
     return l;
 }
 
+// Scales each colour channel's stored values together so that the largest fits a half float, and says
+// whether it had to. A VPL spike (a VPL almost touching a glossy receiver) can exceed the half range;
+// saturating each coefficient alone would distort the SH lobe, scaling keeps its shape and loses only
+// magnitude, and nothing turns into ∞ for the filter to spread.
+fn fit_half(data: ptr<function, array<vec4f, VEC4S>>) -> bool {
+    // 3 channels interleaved: 9 SH coefficients each in 7 vec4s, or one value each in 1.
+    let per_channel = VEC4S * 4u / 3u;
+    var largest = vec3f(0.0);
+    for (var i = 0u; i < per_channel; i++) {
+        for (var c = 0u; c < 3u; c++) {
+            let f = 3u * i + c;
+            largest[c] = max(largest[c], abs((*data)[f / 4u][f % 4u]));
+        }
+    }
+    let scale = half_fit_scale(largest);
+    for (var i = 0u; i < per_channel; i++) {
+        for (var c = 0u; c < 3u; c++) {
+            let f = 3u * i + c;
+            (*data)[f / 4u][f % 4u] *= scale[c];
+        }
+    }
+    return any(scale < vec3f(1.0));
+}
+
 @compute @workgroup_size(TILE, TILE)
 fn main(@builtin(global_invocation_id) id: vec3u) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
@@ -73,6 +97,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     var kept = 0.0;
     var lost = 0.0;
     var compensated = 0.0;
+    var overflowed = 0.0;
     if s.valid {
         let set_index = (id.x % INTERLEAVE_X) + INTERLEAVE_X * (id.y % INTERLEAVE_Y);
         let first = set_index * SLOTS_PER_SET + chunk.begin;
@@ -156,9 +181,13 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         kept += previous.x;
         lost += previous.y;
         compensated += previous.z;
+        overflowed = previous.w;
+    }
+    if fit_half(&data) {
+        overflowed = 1.0;
     }
     for (var k = 0u; k < VEC4S; k++) {
         accum[base + k] = pack_half4(data[k]);
     }
-    clamp_stats[pixel] = vec4f(kept, lost, compensated, 0.0);
+    clamp_stats[pixel] = vec4f(kept, lost, compensated, overflowed);
 }

@@ -700,19 +700,21 @@ impl Technique for Igi {
         let bytes =
             readback::read_buffer(ctx, &self.clamp_stats, 0, u64::from(self.width * self.height) * 16)?;
         let stats: &[f32] = bytemuck::cast_slice(&bytes);
-        let mut sums = [0.0f64; 3];
+        let mut sums = [0.0f64; 4];
         for s in stats.chunks_exact(4) {
             for (sum, v) in sums.iter_mut().zip(s) {
                 *sum += f64::from(*v);
             }
         }
-        let [kept, lost, compensated] = sums;
+        let [kept, lost, compensated, overflowed] = sums;
         let fraction = |x: f64| if kept + lost > 0.0 { x / (kept + lost) } else { 0.0 };
         let mut c = self.counters.clone();
         // Of the last frame's incident light (luminance, all pixels): the share the bound removed, and
         // the share bias compensation added back.
         c.insert("clamped_energy_fraction".into(), fraction(lost));
         c.insert("compensated_energy_fraction".into(), fraction(compensated));
+        // Pixels whose stored light exceeded the half-float range and was scaled down into it.
+        c.insert("half_overflow_pixels".into(), overflowed);
         c.insert("sh".into(), if self.variant == Variant::Sh { 1.0 } else { 0.0 });
         Ok(c)
     }
