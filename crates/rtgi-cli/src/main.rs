@@ -6,7 +6,6 @@
 
 mod list;
 mod render;
-mod scene_spec;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -15,7 +14,7 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use clap::{Parser, Subcommand};
 
-use scene_spec::SceneSpec;
+use rtgi::scene::SceneSpec;
 
 const EXIT_CODES: &str = "Exit codes: 0 success, 1 error (one line 'error: ...' on stderr), \
                           2 command-line syntax error, 101 internal error (a bug).";

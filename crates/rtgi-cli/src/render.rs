@@ -13,8 +13,8 @@ use rtgi::metrics::sequence::FramePattern;
 use rtgi::params::{parse_setting, parse_size};
 use rtgi::renderer::{Aov, Renderer, RendererSettings};
 
-use crate::scene_spec::SceneSpec;
 use crate::{create_parent, print_warnings};
+use rtgi::scene::SceneSpec;
 
 #[derive(Args)]
 pub struct RenderArgs {

@@ -19,6 +19,9 @@ pub mod animation;
 pub mod builtin;
 pub mod gltf_export;
 pub mod gltf_load;
+pub mod spec;
+
+pub use spec::SceneSpec;
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 

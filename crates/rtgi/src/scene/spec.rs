@@ -1,10 +1,11 @@
-//! The `--scene` argument: a built-in scene with optional parameters, or a glTF file.
+//! A scene named as on rtgi's command line (`--scene`) and in bench suites: a built-in scene with
+//! optional parameters (`NAME:key=value,...`), or a glTF file.
 
 use std::path::PathBuf;
 
-use rtgi::SceneError;
-use rtgi::params::{ParamValues, parse_setting};
-use rtgi::scene::{Scene, builtin, gltf_load};
+use super::{Scene, builtin, gltf_load};
+use crate::error::SceneError;
+use crate::params::{ParamValues, parse_setting};
 
 /// What `--scene` names.
 #[derive(Debug, PartialEq)]
