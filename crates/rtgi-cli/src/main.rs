@@ -4,6 +4,7 @@
 //! error rtgi reports (bad values, files, GPU, rendering); 2 a command line clap cannot parse (unknown
 //! flag, missing or mistyped argument); 101 an internal error (a bug: a panic, still printed as one line).
 
+mod bench;
 mod list;
 mod render;
 
@@ -35,6 +36,10 @@ enum Command {
     Render(Box<render::RenderArgs>),
     /// List the built-in scenes and the techniques with their parameters.
     List,
+    /// Run a bench suite (scenes × techniques × parameter sweeps × sizes): GPU time per frame and per
+    /// pass, memory and error against the path-traced reference of every cell, written as results.json,
+    /// report.html (Pareto plots of FLIP against time) and report.md. `rtgi bench merge` joins shards.
+    Bench(Box<bench::BenchArgs>),
     /// Render (or reuse from the cache) a path-traced reference EXR.
     Reference {
         /// Built-in scene (NAME or NAME:key=value,...) or a .gltf/.glb file.
@@ -324,6 +329,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(&args),
         Command::List => list::run(),
+        Command::Bench(args) => bench::run(&args),
         Command::ExportScene { name, out } => export_scene(&name, &out),
         Command::Reference { scene, size, spp, set, out } => {
             reference(&scene, &size, spp, &set, out.as_deref())

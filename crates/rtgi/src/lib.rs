@@ -3,6 +3,7 @@
 //! Headless first: a [`scene::Scene`] goes in, a linear HDR radiance image and statistics come out
 //! ([`render::render`]), or frame by frame through the persistent [`renderer::Renderer`].
 
+pub mod bench;
 pub mod error;
 pub mod frame;
 pub mod gpu;

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The layer of each top-level module; a module may import its own layer and the ones below.
-const LAYERS: [(&str, u32); 17] = [
+const LAYERS: [(&str, u32); 18] = [
     ("error", 0),
     ("scene", 0),
     ("image", 0),
@@ -23,6 +23,7 @@ const LAYERS: [(&str, u32); 17] = [
     ("render", 4),
     ("reference", 4),
     ("testing", 4),
+    ("bench", 5),
     // The crate root re-exports `SceneError`; naming it is naming `error`.
     ("SceneError", 0),
     ("lib", 5),

@@ -8,7 +8,7 @@ use crate::error::SceneError;
 use crate::params::{ParamValues, parse_setting};
 
 /// What `--scene` names.
-#[derive(Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum SceneSpec {
     /// A `.gltf` or `.glb` file.
     File(PathBuf),

@@ -1,0 +1,481 @@
+//! `rtgi bench`: runs a suite's matrix (scenes × techniques × parameter sweeps × sizes) on one adapter
+//! and measures every cell — GPU time per frame and per pass, wall time, memory, and the error of each
+//! frame against the cached path-traced reference — so techniques can be judged at equal time.
+//!
+//! Each measured frame starts afresh (a camera cut: no accumulation, no history), so a cell's error is
+//! what one frame of that cost delivers; animated scenes step through their `times` and are compared
+//! frame by frame with references of the posed scene. Results are plain data ([`BenchResults`], the
+//! `results.json` schema in `docs/bench.md`); [`merge`] joins shards, [`report`] renders them.
+
+pub mod report;
+pub mod suite;
+
+use std::collections::{BTreeMap, HashMap};
+use std::io::Cursor;
+use std::time::Instant;
+
+use base64::Engine as _;
+use serde::{Deserialize, Serialize};
+
+use crate::gpu::{GpuContext, TimingMode};
+use crate::image::{HdrImage, ToneMap};
+use crate::metrics;
+use crate::reference::{ReferenceRequest, reference};
+use crate::renderer::{RenderStats, Renderer, RendererSettings};
+use crate::scene::Scene;
+use crate::techniques::RenderError;
+
+pub use suite::{CellSpec, Shard, Suite, SuiteScene};
+
+/// The `schema` field of `results.json`; bumped on any incompatible change.
+pub const SCHEMA: &str = "rtgi-bench/1";
+
+/// The seed of every reference (a `path` parameter), unless the suite sets one: different from the
+/// techniques' default seed 0, so that a `path` cell does not share its random numbers with the
+/// reference it is compared with.
+pub const REFERENCE_SEED: &str = "1369";
+
+/// Longest edge of the thumbnails kept in the results.
+const THUMBNAIL_EDGE: u32 = 96;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BenchResults {
+    pub schema: String,
+    pub suite: SuiteInfo,
+    /// rtgi's version and the commit it was built from (`git describe --always --dirty`).
+    pub rtgi: BuildInfo,
+    /// The shards these results hold (`I/N`), one for a single run.
+    pub shards: Vec<String>,
+    /// Every adapter that measured a cell.
+    pub adapters: Vec<AdapterInfo>,
+    pub references: Vec<ReferenceResult>,
+    pub cells: Vec<CellResult>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SuiteInfo {
+    pub name: String,
+    pub description: String,
+    pub file: String,
+    pub digest: String,
+    /// Cells in the whole matrix (all shards).
+    pub cells: usize,
+    pub frames: u32,
+    pub error_frames: u32,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct BuildInfo {
+    pub version: String,
+    pub commit: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct AdapterInfo {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ReferenceResult {
+    pub scene: String,
+    pub time: f32,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Cache key: the file is `<scene>-<W>x<H>-<spp>spp-<key>.exr` in the reference cache.
+    pub key: String,
+    /// Whether the reference came from the cache.
+    pub cached: bool,
+    /// Wall time to render it (0 when cached).
+    pub render_ms: f64,
+    pub thumbnail_png: String,
+}
+
+/// Mean and 95th percentile over the measured frames, milliseconds.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Summary {
+    pub mean_ms: f64,
+    pub p95_ms: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PassResult {
+    pub name: String,
+    /// GPU (or, without usable timestamps, no) time of the pass per frame: mean per call × calls per
+    /// frame.
+    pub ms_per_frame: f64,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ErrorResult {
+    pub flip: f64,
+    pub rel_mse: f64,
+    pub rmse: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FrameError {
+    pub time: f32,
+    #[serde(flatten)]
+    pub error: ErrorResult,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CellResult {
+    pub index: usize,
+    pub scene: String,
+    pub technique: String,
+    pub series: String,
+    pub settings: BTreeMap<String, String>,
+    pub sweep: BTreeMap<String, String>,
+    pub width: u32,
+    pub height: u32,
+    /// The adapter's name.
+    pub adapter: String,
+    /// The time per frame the plots use: `gpu_ms.mean_ms` where timestamps are reliable, else
+    /// `wall_ms.mean_ms`.
+    pub frame_ms: Option<f64>,
+    /// "gpu" or "wall": where `frame_ms` comes from.
+    pub time_source: String,
+    pub gpu_ms: Option<Summary>,
+    pub wall_ms: Option<Summary>,
+    pub passes: Vec<PassResult>,
+    /// Renderer creation: scene upload, BVH build, pipelines.
+    pub setup_ms: f64,
+    /// The whole cell: setup, frames, read-backs and metrics.
+    pub cell_wall_ms: f64,
+    /// wgpu's live buffer + texture bytes after the last frame.
+    pub gpu_memory_bytes: u64,
+    pub gpu_scene_bytes: u64,
+    /// Mean over the compared frames.
+    pub error: Option<ErrorResult>,
+    pub frames: Vec<FrameError>,
+    pub counters: BTreeMap<String, f64>,
+    pub warnings: Vec<String>,
+    /// Tone-mapped first compared frame and its FLIP error map (PNG, base64), at most 96 px.
+    pub thumbnail_png: Option<String>,
+    pub error_map_png: Option<String>,
+    /// Why the cell has no figures, when it failed.
+    pub failure: Option<String>,
+}
+
+/// What [`run`] reports as it goes.
+pub enum Progress<'a> {
+    Reference { scene: &'a str, time: f32, width: u32, height: u32, spp: u32 },
+    Cell { done: usize, total: usize, cell: &'a CellSpec, scene: &'a str },
+}
+
+fn png_base64(rgb: &[u8], width: u32, height: u32) -> Result<String, RenderError> {
+    let img = image::RgbImage::from_raw(width, height, rgb.to_vec()).ok_or_else(|| {
+        RenderError::InvalidSettings("thumbnail: pixel count does not match its size".into())
+    })?;
+    let scale = (THUMBNAIL_EDGE as f32 / width.max(height) as f32).min(1.0);
+    let (w, h) = (((width as f32 * scale) as u32).max(1), ((height as f32 * scale) as u32).max(1));
+    let small = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
+    let mut bytes = Vec::new();
+    small
+        .write_to(&mut Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|e| RenderError::InvalidSettings(format!("thumbnail: {e}")))?;
+    Ok(base64::engine::general_purpose::STANDARD.encode(bytes))
+}
+
+fn tone_mapped_thumbnail(image: &HdrImage) -> Result<String, RenderError> {
+    png_base64(&image.to_rgb8(&ToneMap::default()), image.width, image.height)
+}
+
+fn metric_error(e: metrics::MetricsError) -> RenderError {
+    RenderError::InvalidSettings(e.to_string())
+}
+
+fn summary(s: Option<crate::gpu::TimeSummary>) -> Option<Summary> {
+    s.map(|s| Summary { mean_ms: s.mean_ms, p95_ms: s.p95_ms })
+}
+
+/// The cell's figures from the renderer's statistics over `frames` frames.
+fn timings(stats: &RenderStats, frames: u32) -> (Option<Summary>, Option<Summary>, Vec<PassResult>) {
+    let gpu = summary(stats.frame_gpu);
+    let wall = summary(stats.frame_wall);
+    let passes = stats
+        .passes
+        .iter()
+        .filter_map(|p| {
+            let per_call = p.gpu.map(|g| g.mean_ms)?;
+            Some(PassResult {
+                name: p.name.clone(),
+                ms_per_frame: per_call * f64::from(p.calls) / f64::from(frames),
+            })
+        })
+        .collect();
+    (gpu, wall, passes)
+}
+
+/// References of one run, rendered once per (scene, time, size) and shared by every cell.
+struct References {
+    images: HashMap<(usize, u32, u32, u32), HdrImage>,
+    results: Vec<ReferenceResult>,
+}
+
+impl References {
+    #[allow(clippy::too_many_arguments)]
+    fn get(
+        &mut self,
+        ctx: &GpuContext,
+        suite: &Suite,
+        scene_index: usize,
+        scene: &Scene,
+        time: f32,
+        width: u32,
+        height: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<&HdrImage, RenderError> {
+        let key = (scene_index, time.to_bits(), width, height);
+        if !self.images.contains_key(&key) {
+            let s = &suite.scenes[scene_index];
+            progress(Progress::Reference { scene: &s.text, time, width, height, spp: s.reference_spp });
+            let mut settings = suite.reference_settings.clone();
+            if !settings.iter().any(|(k, _)| k == "seed") {
+                settings.push(("seed".into(), REFERENCE_SEED.into()));
+            }
+            let request = ReferenceRequest { width, height, spp: s.reference_spp, settings };
+            let start = Instant::now();
+            let posed = scene.posed(time);
+            let r = reference(ctx, &posed, &request, &mut |_, _| {})?;
+            metrics::check_finite(&r.image, &format!("the reference of {}", s.text)).map_err(metric_error)?;
+            self.results.push(ReferenceResult {
+                scene: s.text.clone(),
+                time,
+                width,
+                height,
+                spp: s.reference_spp,
+                key: r.key.clone(),
+                cached: r.cached,
+                render_ms: if r.cached { 0.0 } else { start.elapsed().as_secs_f64() * 1e3 },
+                thumbnail_png: tone_mapped_thumbnail(&r.image)?,
+            });
+            self.images.insert(key, r.image);
+        }
+        Ok(&self.images[&key])
+    }
+}
+
+/// Measures one cell; errors of the technique on this scene become the cell's `failure`.
+fn run_cell(
+    ctx: &GpuContext,
+    suite: &Suite,
+    cell: &CellSpec,
+    scene: &Scene,
+    references: &mut References,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<CellResult, RenderError> {
+    let s = &suite.scenes[cell.scene];
+    let start = Instant::now();
+    let settings = RendererSettings {
+        technique: cell.technique.clone(),
+        technique_settings: cell.settings.clone(),
+        width: cell.width,
+        height: cell.height,
+        timing: TimingMode::Frame,
+    };
+    let mut result = CellResult {
+        index: cell.index,
+        scene: s.text.clone(),
+        technique: cell.technique.clone(),
+        series: cell.series.clone(),
+        settings: cell.settings.iter().cloned().collect(),
+        sweep: cell.sweep.iter().cloned().collect(),
+        width: cell.width,
+        height: cell.height,
+        adapter: ctx.summary.name.clone(),
+        frame_ms: None,
+        time_source: String::new(),
+        gpu_ms: None,
+        wall_ms: None,
+        passes: Vec::new(),
+        setup_ms: 0.0,
+        cell_wall_ms: 0.0,
+        gpu_memory_bytes: 0,
+        gpu_scene_bytes: 0,
+        error: None,
+        frames: Vec::new(),
+        counters: BTreeMap::new(),
+        warnings: Vec::new(),
+        thumbnail_png: None,
+        error_map_png: None,
+        failure: None,
+    };
+    let mut measure = || -> Result<(), RenderError> {
+        let mut renderer = Renderer::new(ctx, scene.clone(), &settings)?;
+        let time_of = |frame: u32| -> f32 {
+            if s.times.is_empty() { 0.0 } else { s.times[frame.saturating_sub(1) as usize % s.times.len()] }
+        };
+        for frame in 0..=suite.frames {
+            let t = time_of(frame);
+            if s.times.is_empty() {
+                renderer.cut();
+            } else {
+                renderer.set_time(t)?;
+                renderer.cut();
+            }
+            renderer.step()?;
+            if frame == 0 || frame > suite.error_frames {
+                continue;
+            }
+            let image = renderer.read_image()?;
+            metrics::check_finite(&image, &format!("{} on {}", cell.series, s.text)).map_err(metric_error)?;
+            let reference =
+                references.get(ctx, suite, cell.scene, scene, t, cell.width, cell.height, progress)?;
+            let (map, flip) = metrics::flip_map(reference, &image).map_err(metric_error)?;
+            let error = ErrorResult {
+                flip,
+                rel_mse: metrics::rel_mse(reference, &image).map_err(metric_error)?,
+                rmse: metrics::rmse(reference, &image).map_err(metric_error)?,
+            };
+            if result.thumbnail_png.is_none() {
+                result.thumbnail_png = Some(tone_mapped_thumbnail(&image)?);
+                result.error_map_png = Some(png_base64(
+                    &metrics::error_map_rgb8(&map, image.width, image.height),
+                    image.width,
+                    image.height,
+                )?);
+            }
+            result.frames.push(FrameError { time: t, error });
+        }
+        let stats = renderer.stats()?;
+        let (gpu, wall, passes) = timings(&stats, suite.frames + 1);
+        result.gpu_ms = gpu;
+        result.wall_ms = wall;
+        result.passes = passes;
+        (result.frame_ms, result.time_source) = match (gpu, wall) {
+            (Some(g), _) => (Some(g.mean_ms), "gpu".into()),
+            (None, Some(w)) => (Some(w.mean_ms), "wall".into()),
+            (None, None) => (None, String::new()),
+        };
+        result.setup_ms = stats.setup_ms;
+        if let Some(m) = stats.memory.last() {
+            result.gpu_memory_bytes = m.report.gpu_buffer_bytes + m.report.gpu_texture_bytes;
+        }
+        result.gpu_scene_bytes = stats.gpu_scene_bytes;
+        result.counters = stats.counters;
+        result.warnings = stats.warnings;
+        Ok(())
+    };
+    if let Err(e) = measure() {
+        result.failure = Some(e.to_string());
+    }
+    let n = result.frames.len() as f64;
+    if n > 0.0 {
+        let mean = |f: fn(&ErrorResult) -> f64| result.frames.iter().map(|e| f(&e.error)).sum::<f64>() / n;
+        result.error = Some(ErrorResult {
+            flip: mean(|e| e.flip),
+            rel_mse: mean(|e| e.rel_mse),
+            rmse: mean(|e| e.rmse),
+        });
+    }
+    result.cell_wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok(result)
+}
+
+/// Runs the cells of `shard` on `ctx`. A cell that fails (the technique cannot run on that scene, a
+/// non-finite pixel, ...) is kept with its `failure`; a reference or scene that cannot be had stops
+/// the run.
+pub fn run(
+    ctx: &GpuContext,
+    suite: &Suite,
+    shard: Shard,
+    build: BuildInfo,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<BenchResults, RenderError> {
+    let cells: Vec<&CellSpec> = suite.cells.iter().filter(|c| shard.contains(c.index)).collect();
+    let mut scenes: HashMap<usize, Scene> = HashMap::new();
+    let mut references = References { images: HashMap::new(), results: Vec::new() };
+    let mut results = Vec::new();
+    for (done, cell) in cells.iter().enumerate() {
+        let s = &suite.scenes[cell.scene];
+        progress(Progress::Cell { done, total: cells.len(), cell, scene: &s.text });
+        let scene = match scenes.entry(cell.scene) {
+            std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::hash_map::Entry::Vacant(v) => v.insert(
+                s.spec
+                    .load()
+                    .map_err(|e| RenderError::InvalidSettings(format!("scene '{}': {e}", s.text)))?,
+            ),
+        };
+        results.push(run_cell(ctx, suite, cell, scene, &mut references, progress)?);
+    }
+    let a = &ctx.summary;
+    Ok(BenchResults {
+        schema: SCHEMA.into(),
+        suite: SuiteInfo {
+            name: suite.name.clone(),
+            description: suite.description.clone(),
+            file: suite.path.display().to_string(),
+            digest: suite.digest.clone(),
+            cells: suite.cells.len(),
+            frames: suite.frames,
+            error_frames: suite.error_frames,
+        },
+        rtgi: build,
+        shards: vec![shard.to_string()],
+        adapters: vec![AdapterInfo {
+            name: a.name.clone(),
+            backend: a.backend.clone(),
+            device_type: a.device_type.clone(),
+            driver: a.driver.clone(),
+            driver_info: a.driver_info.clone(),
+        }],
+        references: references.results,
+        cells: results,
+    })
+}
+
+/// Joins the results of shards of one suite into one: same suite (name and file digest) and schema,
+/// no cell twice. Cells come out in matrix order; [`missing_cells`] says which the shards did not cover.
+pub fn merge(parts: Vec<BenchResults>) -> Result<BenchResults, String> {
+    let mut parts = parts.into_iter();
+    let mut merged = parts.next().ok_or("nothing to merge")?;
+    for part in parts {
+        if part.schema != merged.schema {
+            return Err(format!("schema {} cannot be merged with {}", part.schema, merged.schema));
+        }
+        if part.suite != merged.suite {
+            return Err(format!(
+                "results of suite '{}' ({}) cannot be merged with suite '{}' ({}): not the same suite file",
+                part.suite.name, part.suite.digest, merged.suite.name, merged.suite.digest
+            ));
+        }
+        if part.rtgi != merged.rtgi {
+            return Err(format!(
+                "results of rtgi {} ({}) cannot be merged with rtgi {} ({})",
+                part.rtgi.version, part.rtgi.commit, merged.rtgi.version, merged.rtgi.commit
+            ));
+        }
+        merged.shards.extend(part.shards);
+        for a in part.adapters {
+            if !merged.adapters.contains(&a) {
+                merged.adapters.push(a);
+            }
+        }
+        for r in part.references {
+            if !merged.references.iter().any(|m| m.key == r.key) {
+                merged.references.push(r);
+            }
+        }
+        merged.cells.extend(part.cells);
+    }
+    merged.cells.sort_by_key(|c| c.index);
+    if let Some(w) = merged.cells.windows(2).find(|w| w[0].index == w[1].index) {
+        return Err(format!("cell {} is in two of the merged results (overlapping shards)", w[0].index));
+    }
+    merged.shards.sort();
+    Ok(merged)
+}
+
+/// Indices of the suite's cells that `results` lacks.
+pub fn missing_cells(results: &BenchResults) -> Vec<usize> {
+    let have: std::collections::HashSet<usize> = results.cells.iter().map(|c| c.index).collect();
+    (0..results.suite.cells).filter(|i| !have.contains(i)).collect()
+}
