@@ -392,10 +392,10 @@ pub fn run(
     let cells: Vec<&CellSpec> = suite.cells.iter().filter(|c| shard.contains(c.index)).collect();
     let mut scenes: HashMap<usize, Scene> = HashMap::new();
     let mut references = References { images: HashMap::new(), results: Vec::new() };
-    let mut results = Vec::new();
-    for (done, cell) in cells.iter().enumerate() {
+    // References first: rendering one between a cell's frames would disturb its timing (on lavapipe
+    // its timestamps came out 3x too short), and the cells' wall times should not include them.
+    for cell in &cells {
         let s = &suite.scenes[cell.scene];
-        progress(Progress::Cell { done, total: cells.len(), cell, scene: &s.text });
         let scene = match scenes.entry(cell.scene) {
             std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
             std::collections::hash_map::Entry::Vacant(v) => v.insert(
@@ -404,6 +404,16 @@ pub fn run(
                     .map_err(|e| RenderError::InvalidSettings(format!("scene '{}': {e}", s.text)))?,
             ),
         };
+        let times = if s.times.is_empty() { vec![0.0] } else { s.times.clone() };
+        for t in times.into_iter().take(suite.error_frames as usize) {
+            references.get(ctx, suite, cell.scene, scene, t, cell.width, cell.height, progress)?;
+        }
+    }
+    let mut results = Vec::new();
+    for (done, cell) in cells.iter().enumerate() {
+        let s = &suite.scenes[cell.scene];
+        progress(Progress::Cell { done, total: cells.len(), cell, scene: &s.text });
+        let scene = &scenes[&cell.scene];
         results.push(run_cell(ctx, suite, cell, scene, &mut references, progress)?);
     }
     let a = &ctx.summary;
