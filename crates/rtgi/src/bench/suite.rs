@@ -351,6 +351,22 @@ scenes = ["cornell"]
         assert_eq!(s.scenes[1].times, vec![0.0, 0.5]);
     }
 
+    /// The suites the repository ships (benches/*.toml) are valid.
+    #[test]
+    fn the_committed_suites_parse() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches");
+        let mut count = 0;
+        for entry in std::fs::read_dir(&dir).expect("benches/") {
+            let path = entry.expect("entry").path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                let suite = Suite::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                assert!(!suite.cells.is_empty(), "{}", path.display());
+                count += 1;
+            }
+        }
+        assert!(count >= 2, "benches/quick.toml and benches/gpu.toml");
+    }
+
     #[test]
     fn shards_partition_the_matrix() {
         let s = Suite::parse(SUITE, Path::new("t.toml")).expect("suite");
