@@ -41,7 +41,8 @@ fn every_technique_on_every_builtin_scene_is_finite() {
     }
 }
 
-/// The reproduction of issue 10: `igi-sh` with 4096 VPLs on `bumpy-glossy` at 512×512 stored SH
+/// The reproduction of issue 10: `igi-sh` with 4096 VPLs (and direct light from VPLs, then its default)
+/// on `bumpy-glossy` at 512×512 stored SH
 /// coefficients beyond the half-float range at two pixels next to glossy VPL spikes; packed as ∞ and
 /// spread by the discontinuity filter they gave 11 infinite pixels. Now the coefficients are scaled into
 /// range (counted in `half_overflow_pixels`) and every pixel is finite. (About 30 s on lavapipe.)
@@ -50,7 +51,7 @@ fn igi_sh_vpl_spikes_beyond_the_half_range_stay_finite() {
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let scene = rtgi::scene::builtin::build("bumpy-glossy", &[]).expect("scene");
     let mut renderer =
-        Renderer::new(&ctx, scene, &settings("igi-sh", &[("vpls", "4096")], 512)).expect("renderer");
+        Renderer::new(&ctx, scene, &settings("igi-sh", &[("vpls", "4096"), ("direct", "vpl")], 512)).expect("renderer");
     renderer.step().expect("frame");
     let image = renderer.read_image().expect("readback");
     let (count, first) = non_finite_pixels(&image);

@@ -37,7 +37,7 @@ pub const MAX_DEPTH: u32 = 8;
 const CHUNK: u32 = 256;
 
 macro_rules! igi_params {
-    ($($extra:expr),* $(,)?) => {
+    ($direct_default:expr, $direct_doc:expr; $($extra:expr),* $(,)?) => {
         with_direct_params![
             ParamSpec {
                 name: "vpls",
@@ -60,8 +60,8 @@ macro_rules! igi_params {
             ParamSpec {
                 name: "direct",
                 kind: ParamKind::Choice(&["vpl", "raster"]),
-                default: "vpl",
-                doc: "direct light from the VPLs on the light sources (vpl), or from the `direct` technique with VPLs for indirect light only (raster)",
+                default: $direct_default,
+                doc: $direct_doc,
             },
             ParamSpec {
                 name: "g_max",
@@ -93,6 +93,8 @@ macro_rules! igi_params {
 }
 
 const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
+    "vpl",
+    "direct light from the VPLs on the light sources (vpl), or from the `direct` technique with VPLs for indirect light only (raster)";
     ParamSpec {
         name: "filter_normals",
         kind: ParamKind::Bool,
@@ -107,7 +109,10 @@ const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
     },
 );
 
-const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!();
+const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!(
+    "raster",
+    "direct light from the `direct` technique with VPLs for indirect light only (raster, the default: order-2 SH band-limit the sharp lobes of VPLs on point lights, so direct=vpl had a higher FLIP than igi's in the quick bench, docs/measurements/bench-quick), or from the VPLs on the light sources (vpl)";
+);
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "igi",
