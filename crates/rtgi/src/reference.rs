@@ -140,10 +140,26 @@ pub struct Reference {
     pub key: String,
 }
 
+/// The `path` seed of a reference unless its request sets one ("REFS" in ASCII). Techniques default to
+/// seed 0, and `path` draws its random numbers from (pixel, frame, sample, seed) alone: with the same
+/// seed, a 16-spp `path` image under test would be the first 16 samples of its own reference, and the
+/// errors of other techniques' default streams would be correlated with the reference's noise too.
+pub const REFERENCE_SEED: u32 = 0x5245_4653;
+
+/// The request's `path` parameters without `spp` (set per frame by [`reference`]), with the seed
+/// defaulting to [`REFERENCE_SEED`].
+fn path_settings(request: &ReferenceRequest) -> Vec<(String, String)> {
+    let mut settings: Vec<(String, String)> =
+        request.settings.iter().filter(|(k, _)| k != "spp").cloned().collect();
+    if !settings.iter().any(|(k, _)| k == "seed") {
+        settings.insert(0, ("seed".into(), REFERENCE_SEED.to_string()));
+    }
+    settings
+}
+
 /// The cache key of `request` for `scene`.
 pub fn cache_key(scene: &Scene, request: &ReferenceRequest) -> Result<String, RenderError> {
-    let mut settings = request.settings.clone();
-    settings.retain(|(k, _)| k != "spp");
+    let settings = path_settings(request);
     let (_, params) = crate::techniques::resolve("path", &settings).map_err(RenderError::InvalidSettings)?;
     let mut h = StableHasher::default();
     h.str(&renderer_version()).bytes(&scene_content_hash(scene).to_le_bytes());
@@ -182,8 +198,7 @@ pub fn reference(
         return Ok(Reference { image, path, cached: true, key });
     }
     let per_frame = samples_per_frame(request.spp);
-    let mut technique_settings: Vec<(String, String)> =
-        request.settings.iter().filter(|(k, _)| k != "spp").cloned().collect();
+    let mut technique_settings = path_settings(request);
     technique_settings.push(("spp".into(), per_frame.to_string()));
     let settings = RenderSettings {
         technique: "path".into(),
@@ -247,8 +262,18 @@ mod tests {
         let same = ReferenceRequest { settings: vec![("max_bounces".into(), "-1".into())], ..req.clone() };
         assert_eq!(k, cache_key(&a, &same).unwrap());
         assert!(
-            cache_key(&a, &ReferenceRequest { settings: vec![("bogus".into(), "1".into())], ..req }).is_err()
+            cache_key(&a, &ReferenceRequest { settings: vec![("bogus".into(), "1".into())], ..req.clone() })
+                .is_err()
         );
+        // The seed defaults to REFERENCE_SEED, not to `path`'s own default.
+        let seed = |s: String| ReferenceRequest { settings: vec![("seed".into(), s)], ..req.clone() };
+        assert_eq!(k, cache_key(&a, &seed(REFERENCE_SEED.to_string())).unwrap());
+        for technique in crate::techniques::registry() {
+            if let Some(spec) = technique.params.iter().find(|p| p.name == "seed") {
+                assert_ne!(spec.default, REFERENCE_SEED.to_string(), "{}'s default seed", technique.name);
+            }
+        }
+        assert_ne!(k, cache_key(&a, &seed("0".into())).unwrap());
     }
 
     /// The renderer version hashes the sources that shape a reference, with the same rule and hash at
