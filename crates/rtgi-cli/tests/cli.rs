@@ -282,6 +282,7 @@ fn compare_rejects_mismatched_and_missing_images() {
     assert!(line.contains("missing.exr"), "{line}");
 }
 
+/// Refused while the parameters are resolved, before the GPU adapter is even looked for.
 #[test]
 fn too_few_vpls_for_the_interleaving_pattern_is_an_error() {
     let err = expect_error(&rtgi(&[

@@ -56,6 +56,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: false },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate: super::independent_params,
     create,
 };
 
