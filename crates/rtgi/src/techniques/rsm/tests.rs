@@ -74,6 +74,18 @@ fn shaders_validate() {
     );
 }
 
+/// The adapter check (`gpu::context::REQUIRED_FORMAT_USAGES`) asks for the RSM's render targets.
+#[test]
+fn the_adapter_check_covers_the_rsm_formats() {
+    let required = crate::gpu::context::REQUIRED_FORMAT_USAGES;
+    for format in [map::POSITION_FORMAT, map::NORMAL_FORMAT, map::INTENSITY_FORMAT] {
+        assert!(
+            required.iter().any(|(f, u)| *f == format && u.contains(wgpu::TextureUsages::RENDER_ATTACHMENT)),
+            "{format:?}"
+        );
+    }
+}
+
 #[test]
 fn atlas_layout_is_a_bijection() {
     for (w, h) in [(64, 48), (61, 37)] {
