@@ -123,17 +123,32 @@ fn vpls_on_the_lights_give_the_direct_light() {
     assert!(m.flip < 0.003, "{m:?}");
 }
 
-/// Paper §4.2: on diffuse scenes without normal maps, filtering SH and filtering irradiance agree.
+/// Paper §4.2: on diffuse scenes without normal maps, filtering SH and filtering irradiance agree. Both
+/// techniques here gather the same VPLs (same seed), filter over the same neighbours (`igi` with
+/// `filter_normals=false`: the SH filter crosses normal changes too) and take direct light from
+/// rasterisation (order-2 SH band-limits the near-point light of VPLs on the lamp, which is the method's
+/// approximation of direct light, not of filtering). What differs is what is filtered: irradiance or
+/// SH coefficients of incident light. Their images must agree far more closely than two VPL sets do.
 #[test]
 fn igi_and_igi_sh_agree_on_the_diffuse_cornell_box() {
     let ctx = ctx();
-    let a = run(&ctx, "cornell", "igi", &[("vpls", "1024")], 64).image;
-    let b = run(&ctx, "cornell", "igi-sh", &[("vpls", "1024")], 64).image;
+    let common = [("vpls", "1024"), ("direct", "raster")];
+    let irradiance = [common[0], common[1], ("filter_normals", "false")];
+    let a = run(&ctx, "cornell", "igi", &irradiance, 64).image;
+    let b = run(&ctx, "cornell", "igi-sh", &common, 64).image;
+    let other_vpls = [irradiance[0], irradiance[1], irradiance[2], ("seed", "5")];
+    let noise = metrics::compare(&a, &run(&ctx, "cornell", "igi", &other_vpls, 64).image).expect("compare");
     let m = metrics::compare(&a, &b).expect("compare");
-    eprintln!("igi vs igi-sh on cornell: {m:?}");
-    // Measured: FLIP 0.078, relMSE 0.0020 (the SH variant filters across the box's edges where the
-    // irradiance filter stops, and band-limits the direct light of the area lamp).
-    assert!(m.flip < 0.1 && m.rel_mse < 0.004, "{m:?}");
+    let (ma, mb) = (mean(&a), mean(&b));
+    eprintln!(
+        "igi vs igi-sh on cornell: {m:?}, means {ma:.5} {mb:.5}; igi vs igi with other VPLs: {noise:?}"
+    );
+    // Measured: FLIP 0.028, relMSE 0.00042, means 0.11397 and 0.11369 (0.24 % apart); two VPL sets of
+    // `igi` differ by FLIP 0.175, relMSE 0.051 (ratios 0.16 and 0.008). (With both defaults — direct light from VPLs, `igi`
+    // stopping at normal changes — FLIP 0.078, relMSE 0.0020.)
+    assert!(m.flip < 0.05 && m.rel_mse < 0.0008, "{m:?}");
+    assert!((ma / mb - 1.0).abs() < 0.005, "means {ma} {mb}");
+    assert!(m.flip < 0.3 * noise.flip && m.rel_mse < 0.015 * noise.rel_mse, "{m:?} vs VPL noise {noise:?}");
 }
 
 fn out_dir() -> PathBuf {
