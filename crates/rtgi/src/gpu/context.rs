@@ -66,9 +66,11 @@ const REQUIRED_DOWNLEVEL: [(wgpu::DownlevelFlags, &str); 4] = [
     (wgpu::DownlevelFlags::COMPARISON_SAMPLERS, "comparison samplers"),
 ];
 
-/// Texture formats and the usages every run puts them to: the G-buffer (`frame::*_FORMAT`) and the
+/// Texture formats and the usages rtgi's passes put them to: the G-buffer (`frame::*_FORMAT`) and the
 /// reflective shadow maps are render targets, depth and shadow maps are depth attachments that are
-/// sampled, radiance accumulates in an `Rgba32Float` storage texture. `frame`'s tests check that its
+/// sampled, radiance accumulates in an `Rgba32Float` storage texture. (An adapter lacking one of them
+/// could still run the techniques that do not use it — `path` renders no G-buffer — but rtgi picks
+/// adapters that run every technique, so that a comparison never depends on which adapter was found.) `frame`'s tests check that its
 /// formats are listed here (this layer cannot name them).
 pub const REQUIRED_FORMAT_USAGES: [(wgpu::TextureFormat, wgpu::TextureUsages); 7] = {
     use wgpu::TextureFormat as F;
@@ -88,7 +90,7 @@ pub const REQUIRED_FORMAT_USAGES: [(wgpu::TextureFormat, wgpu::TextureUsages); 7
 pub struct AdapterCapabilities<'a> {
     pub downlevel: wgpu::DownlevelCapabilities,
     pub limits: wgpu::Limits,
-    /// What the device will let textures of a format do (see [`adapter_capabilities`]).
+    /// What the device will let textures of a format do (see [`format_features_of`]).
     pub format_features: &'a dyn Fn(wgpu::TextureFormat) -> wgpu::TextureFormatFeatures,
 }
 
