@@ -43,7 +43,7 @@ fn one_bounce(
 //   rsm-interleaved 4x4, 256 samples          flip 0.0624, relMSE 0.00184
 //   sii, 256 VPLs                             flip 0.0494, relMSE 0.00137
 // The remaining error is mostly the indirect occlusion the methods ignore (and the reference's noise); the
-// limits allow about 1.5x the measured values (1.46x–1.8x now), well below what direct light alone scores.
+// limits allow 1.5x–1.8x the measured values, well below what direct light alone scores.
 
 #[test]
 fn rsm_gather_adds_the_first_bounce() {
@@ -83,11 +83,11 @@ fn direct_alone_fails_the_one_bounce_thresholds() {
     assert!(!r.passed, "{:?}", r.metrics);
 }
 
-const RSM_FLIP: f64 = 0.077;
-const RSM_REL_MSE: f64 = 0.0021;
-const RSMI_FLIP: f64 = 0.092;
+const RSM_FLIP: f64 = 0.08;
+const RSM_REL_MSE: f64 = 0.0022;
+const RSMI_FLIP: f64 = 0.094;
 const RSMI_REL_MSE: f64 = 0.0028;
-const SII_FLIP: f64 = 0.072;
+const SII_FLIP: f64 = 0.075;
 const SII_REL_MSE: f64 = 0.0025;
 
 fn mean_indirect(ctx: &GpuContext, technique: &str, settings: &[(&str, &str)]) -> f64 {
