@@ -282,6 +282,33 @@ fn compare_rejects_mismatched_and_missing_images() {
     assert!(line.contains("missing.exr"), "{line}");
 }
 
+/// An adapter rtgi cannot run on is skipped with its reason, and with none left the error lists them and
+/// names the driver to install. Mesa's GL adapter (llvmpipe) cannot render to R32Float; a machine
+/// without any GL adapter gets "none found". (Where a GL driver can run rtgi, it renders.)
+#[test]
+fn gl_only_without_a_usable_adapter_names_each_adapter_and_the_driver() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = Command::new(env!("CARGO_BIN_EXE_rtgi"))
+        .args(["render", "--size", "8x8", "--out", "gl.png"])
+        .env("WGPU_BACKEND", "gl")
+        .current_dir(dir.path())
+        .output()
+        .expect("the rtgi binary runs");
+    if out.status.success() {
+        eprintln!("a GL adapter here can run rtgi; nothing to check");
+        return;
+    }
+    let line = expect_error(&out);
+    assert!(line.contains("no usable GPU adapter (wgpu backends: GL;"), "{line}");
+    assert!(line.contains("scripts/ensure-vulkan.sh") && line.contains("mesa-vulkan-drivers"), "{line}");
+    if line.contains("llvmpipe") {
+        assert!(line.contains("(Gl, Cpu): no RENDER_ATTACHMENT on R32Float textures"), "{line}");
+    } else {
+        assert!(line.contains("none found") || line.contains("(Gl,"), "{line}");
+    }
+}
+
+/// Refused while the parameters are resolved, before the GPU adapter is even looked for.
 #[test]
 fn too_few_vpls_for_the_interleaving_pattern_is_an_error() {
     let err = expect_error(&rtgi(&[

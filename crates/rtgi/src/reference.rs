@@ -2,9 +2,12 @@
 //!
 //! A reference is keyed by everything that affects its pixels: the scene's content (geometry,
 //! materials, textures, lights, environment, camera), the image size, the sample count, the path
-//! tracer's parameters and the renderer version (the crate version plus a hash of the composed path
-//! tracer shader, so any change to the shared WGSL library invalidates old references). Tests and
+//! tracer's parameters and the renderer version (the crate version plus a hash of the library sources
+//! that shape a reference — path tracer, BVH build, sampling tables, shared WGSL, renderer; see
+//! [`sources`] — so a change to any of them renders references anew). Tests and
 //! benchmarks ask for a reference and get the cached EXR when one exists.
+
+pub mod sources;
 
 use std::path::{Path, PathBuf};
 
@@ -13,44 +16,7 @@ use crate::image::HdrImage;
 use crate::render::{ProgressFn, RenderError, RenderSettings, render};
 use crate::scene::{Environment, Light, Scene};
 
-/// 64-bit FNV-1a: a stable hash (unlike `DefaultHasher`, which may change between Rust releases).
-#[derive(Clone, Copy, Debug)]
-pub struct StableHasher(u64);
-
-impl Default for StableHasher {
-    fn default() -> Self {
-        StableHasher(0xcbf2_9ce4_8422_2325)
-    }
-}
-
-impl StableHasher {
-    pub fn bytes(&mut self, data: &[u8]) -> &mut Self {
-        for b in data {
-            self.0 ^= u64::from(*b);
-            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
-        }
-        self
-    }
-
-    pub fn u32(&mut self, v: u32) -> &mut Self {
-        self.bytes(&v.to_le_bytes())
-    }
-
-    pub fn f32s(&mut self, v: &[f32]) -> &mut Self {
-        for x in v {
-            self.u32(x.to_bits());
-        }
-        self
-    }
-
-    pub fn str(&mut self, s: &str) -> &mut Self {
-        self.u32(s.len() as u32).bytes(s.as_bytes())
-    }
-
-    pub fn finish(&self) -> u64 {
-        self.0
-    }
-}
+pub use sources::StableHasher;
 
 /// A hash of everything in `scene` that can change a rendered pixel (names and warnings excluded).
 pub fn scene_content_hash(scene: &Scene) -> u64 {
@@ -123,12 +89,11 @@ pub fn scene_content_hash(scene: &Scene) -> u64 {
     h.finish()
 }
 
-/// The renderer version that references depend on: the crate version and the composed path tracer.
+/// The renderer version that references depend on: the crate version and a hash of every library
+/// source that can change a reference's pixels (computed by `build.rs`; which files, and why, in
+/// [`sources::is_reference_source`]).
 pub fn renderer_version() -> String {
-    let shader = crate::techniques::path::composed_source_for_hash();
-    let mut h = StableHasher::default();
-    h.str(&shader);
-    format!("{}-{:016x}", env!("CARGO_PKG_VERSION"), h.finish())
+    format!("{}-{}", env!("CARGO_PKG_VERSION"), env!("RTGI_REFERENCE_SOURCES_HASH"))
 }
 
 /// Where references are cached: `$RTGI_CACHE_DIR`, else `$XDG_CACHE_HOME/rtgi/references`, else
@@ -175,10 +140,26 @@ pub struct Reference {
     pub key: String,
 }
 
+/// The `path` seed of a reference unless its request sets one ("REFS" in ASCII). Techniques default to
+/// seed 0, and `path` draws its random numbers from (pixel, frame, sample, seed) alone: with the same
+/// seed, a 16-spp `path` image under test would be the first 16 samples of its own reference, and the
+/// errors of other techniques' default streams would be correlated with the reference's noise too.
+pub const REFERENCE_SEED: u32 = 0x5245_4653;
+
+/// The request's `path` parameters without `spp` (set per frame by [`reference`]), with the seed
+/// defaulting to [`REFERENCE_SEED`].
+fn path_settings(request: &ReferenceRequest) -> Vec<(String, String)> {
+    let mut settings: Vec<(String, String)> =
+        request.settings.iter().filter(|(k, _)| k != "spp").cloned().collect();
+    if !settings.iter().any(|(k, _)| k == "seed") {
+        settings.insert(0, ("seed".into(), REFERENCE_SEED.to_string()));
+    }
+    settings
+}
+
 /// The cache key of `request` for `scene`.
 pub fn cache_key(scene: &Scene, request: &ReferenceRequest) -> Result<String, RenderError> {
-    let mut settings = request.settings.clone();
-    settings.retain(|(k, _)| k != "spp");
+    let settings = path_settings(request);
     let (_, params) = crate::techniques::resolve("path", &settings).map_err(RenderError::InvalidSettings)?;
     let mut h = StableHasher::default();
     h.str(&renderer_version()).bytes(&scene_content_hash(scene).to_le_bytes());
@@ -217,8 +198,7 @@ pub fn reference(
         return Ok(Reference { image, path, cached: true, key });
     }
     let per_frame = samples_per_frame(request.spp);
-    let mut technique_settings: Vec<(String, String)> =
-        request.settings.iter().filter(|(k, _)| k != "spp").cloned().collect();
+    let mut technique_settings = path_settings(request);
     technique_settings.push(("spp".into(), per_frame.to_string()));
     let settings = RenderSettings {
         technique: "path".into(),
@@ -282,8 +262,87 @@ mod tests {
         let same = ReferenceRequest { settings: vec![("max_bounces".into(), "-1".into())], ..req.clone() };
         assert_eq!(k, cache_key(&a, &same).unwrap());
         assert!(
-            cache_key(&a, &ReferenceRequest { settings: vec![("bogus".into(), "1".into())], ..req }).is_err()
+            cache_key(&a, &ReferenceRequest { settings: vec![("bogus".into(), "1".into())], ..req.clone() })
+                .is_err()
         );
+        // The seed defaults to REFERENCE_SEED, not to `path`'s own default.
+        let seed = |s: String| ReferenceRequest { settings: vec![("seed".into(), s)], ..req.clone() };
+        assert_eq!(k, cache_key(&a, &seed(REFERENCE_SEED.to_string())).unwrap());
+        for technique in crate::techniques::registry() {
+            if let Some(spec) = technique.params.iter().find(|p| p.name == "seed") {
+                assert_ne!(spec.default, REFERENCE_SEED.to_string(), "{}'s default seed", technique.name);
+            }
+        }
+        assert_ne!(k, cache_key(&a, &seed("0".into())).unwrap());
+    }
+
+    /// The renderer version hashes the sources that shape a reference, with the same rule and hash at
+    /// build time (`build.rs`) as here, and one changed byte in any of them gives another key.
+    #[test]
+    fn renderer_version_covers_the_sources_that_shape_a_reference() {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let files = sources::collect_reference_sources(&src, &mut Vec::new()).expect("read src");
+        let hash = sources::hash_sources(&files);
+        assert_eq!(
+            format!("{hash:016x}"),
+            env!("RTGI_REFERENCE_SOURCES_HASH"),
+            "build.rs hashed other sources than the ones under {} now",
+            src.display()
+        );
+        assert!(renderer_version().ends_with(&format!("{hash:016x}")));
+        let names: Vec<&str> = files.iter().map(|(p, _)| p.as_str()).collect();
+        let covered = [
+            "gpu/bvh/build.rs",          // the BVH build
+            "gpu/bvh/instances.rs",      // the two-level BVH
+            "gpu/scene.rs",              // scene upload, emitter and environment sampling tables
+            "techniques/path/mod.rs",    // the path tracer's host code
+            "techniques/path/path.wgsl", // and its shader
+            "techniques/compute.rs",     // its pipeline and dispatch helpers
+            "shaders/common/light_sampling.wgsl",
+            "shaders/mod.rs", // WGSL composition
+            "frame/mod.rs",   // camera uniforms
+            "renderer.rs",
+            "render.rs",
+            "reference.rs",
+            "reference/sources.rs",
+            "image.rs", // the EXR the reference is stored as
+        ];
+        for name in covered {
+            assert!(names.contains(&name), "{name} is not hashed into reference keys: {names:?}");
+        }
+        let not_covered = [
+            "techniques/igi/mod.rs",
+            "techniques/rsm/gather.wgsl",
+            "gpu/bvh/tests.rs",
+            "gpu/bvh/test_geometry.rs",
+            "scene/gltf_load/animation_tests.rs",
+            "testing.rs",
+            "testing/animated_gltf.rs",
+            "metrics/mod.rs",
+            "scene/builtin/cornell.rs",
+        ];
+        for name in not_covered {
+            assert!(!names.contains(&name), "{name} should not invalidate references");
+        }
+        // One byte of any file, its name, or one more file: another hash.
+        for name in ["gpu/bvh/build.rs", "gpu/scene.rs", "techniques/path/mod.rs", "shaders/common/bvh.wgsl"]
+        {
+            let i = names.iter().position(|n| *n == name).expect("listed");
+            let mut edited = files.clone();
+            let last = edited[i].1.len() - 1;
+            edited[i].1[last] ^= 1;
+            assert_ne!(sources::hash_sources(&edited), hash, "{name} edited");
+        }
+        let mut renamed = files.clone();
+        renamed[0].0.push('x');
+        assert_ne!(sources::hash_sources(&renamed), hash, "renamed");
+        let mut added = files.clone();
+        added.push(("gpu/new.rs".into(), Vec::new()));
+        assert_ne!(sources::hash_sources(&added), hash, "added");
+        // The order files are listed in does not matter (directory order differs between systems).
+        let mut reversed = files.clone();
+        reversed.reverse();
+        assert_eq!(sources::hash_sources(&reversed), hash);
     }
 
     #[test]

@@ -30,7 +30,9 @@ pub struct ImageTest<'a> {
     pub width: u32,
     pub height: u32,
     pub frames: u32,
-    /// Samples per pixel of the reference and its `path` parameters (e.g. `max_bounces=1`).
+    /// Samples per pixel of the reference and its `path` parameters (e.g. `max_bounces=1`). Its seed is
+    /// [`crate::reference::REFERENCE_SEED`] unless set here, so its noise is independent of the
+    /// technique's own random streams (seed 0 by default).
     pub reference_spp: u32,
     pub reference_settings: &'a [(&'a str, &'a str)],
     /// Largest acceptable mean FLIP and relative MSE (derive them from measurement, with the measured

@@ -51,7 +51,8 @@ fn igi_sh_vpl_spikes_beyond_the_half_range_stay_finite() {
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let scene = rtgi::scene::builtin::build("bumpy-glossy", &[]).expect("scene");
     let mut renderer =
-        Renderer::new(&ctx, scene, &settings("igi-sh", &[("vpls", "4096"), ("direct", "vpl")], 512)).expect("renderer");
+        Renderer::new(&ctx, scene, &settings("igi-sh", &[("vpls", "4096"), ("direct", "vpl")], 512))
+            .expect("renderer");
     renderer.step().expect("frame");
     let image = renderer.read_image().expect("readback");
     let (count, first) = non_finite_pixels(&image);

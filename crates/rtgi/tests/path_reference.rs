@@ -138,7 +138,7 @@ fn rmse_falls_as_inverse_square_root_of_samples() {
     let reference = rtgi::reference::reference(&ctx, &scene, &request, &mut |_, _| {}).expect("reference");
     let mut points = Vec::new();
     for (i, spp) in [16u32, 32, 64, 128, 256].into_iter().enumerate() {
-        // A different seed than the reference's (0) and than each other, so errors are independent.
+        // A different seed than the reference's (`REFERENCE_SEED`) and than each other, so errors are independent.
         let seed = (1000 + i).to_string();
         let img = render_path(&ctx, "cornell", size, spp, &[("seed", &seed)]);
         let e = rtgi::metrics::rmse(&reference.image, &img).expect("same size");

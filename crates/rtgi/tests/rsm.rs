@@ -35,13 +35,15 @@ fn one_bounce(
     }
 }
 
-// Measured on lavapipe (Mesa 22.3.6), against the 256-spp one-bounce reference at 64²:
-//   direct alone (no indirect light)          flip 0.1754, relMSE 0.01975
-//   rsm, 256 samples                          flip 0.0515, relMSE 0.00141
-//   rsm-interleaved 4x4, 256 samples          flip 0.0616, relMSE 0.00184
-//   sii, 256 VPLs                             flip 0.0482, relMSE 0.00163
+// Measured on lavapipe (Mesa 22.3.6), against the 256-spp one-bounce reference at 64² (seed
+// REFERENCE_SEED; with the reference on the techniques' seed 0 they were 0.1754/0.01975, 0.0515/0.00141,
+// 0.0616/0.00184, 0.0482/0.00163):
+//   direct alone (no indirect light)          flip 0.1748, relMSE 0.01957
+//   rsm, 256 samples                          flip 0.0527, relMSE 0.00144
+//   rsm-interleaved 4x4, 256 samples          flip 0.0624, relMSE 0.00184
+//   sii, 256 VPLs                             flip 0.0494, relMSE 0.00137
 // The remaining error is mostly the indirect occlusion the methods ignore (and the reference's noise); the
-// limits allow 1.5x the measured values, well below what direct light alone scores.
+// limits allow 1.5x–1.8x the measured values, well below what direct light alone scores.
 
 #[test]
 fn rsm_gather_adds_the_first_bounce() {
@@ -77,14 +79,15 @@ fn direct_alone_fails_the_one_bounce_thresholds() {
     let r = one_bounce("direct-cornell-spot-b1", "direct", &[], RSM_FLIP, RSM_REL_MSE)
         .run(&ctx, &out_dir())
         .expect("runs");
+    eprintln!("direct alone against the one-bounce reference: {:?}", r.metrics);
     assert!(!r.passed, "{:?}", r.metrics);
 }
 
-const RSM_FLIP: f64 = 0.077;
-const RSM_REL_MSE: f64 = 0.0021;
-const RSMI_FLIP: f64 = 0.092;
+const RSM_FLIP: f64 = 0.08;
+const RSM_REL_MSE: f64 = 0.0022;
+const RSMI_FLIP: f64 = 0.094;
 const RSMI_REL_MSE: f64 = 0.0028;
-const SII_FLIP: f64 = 0.072;
+const SII_FLIP: f64 = 0.075;
 const SII_REL_MSE: f64 = 0.0025;
 
 fn mean_indirect(ctx: &GpuContext, technique: &str, settings: &[(&str, &str)]) -> f64 {

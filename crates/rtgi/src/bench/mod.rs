@@ -30,11 +30,6 @@ pub use suite::{CellSpec, Shard, Suite, SuiteScene};
 /// The `schema` field of `results.json`; bumped on any incompatible change.
 pub const SCHEMA: &str = "rtgi-bench/1";
 
-/// The seed of every reference (a `path` parameter), unless the suite sets one: different from the
-/// techniques' default seed 0, so that a `path` cell does not share its random numbers with the
-/// reference it is compared with.
-pub const REFERENCE_SEED: &str = "1369";
-
 /// Longest edge of the thumbnails kept in the results.
 const THUMBNAIL_EDGE: u32 = 96;
 
@@ -236,10 +231,9 @@ impl References {
         if !self.images.contains_key(&key) {
             let s = &suite.scenes[scene_index];
             progress(Progress::Reference { scene: &s.text, time, width, height, spp: s.reference_spp });
-            let mut settings = suite.reference_settings.clone();
-            if !settings.iter().any(|(k, _)| k == "seed") {
-                settings.push(("seed".into(), REFERENCE_SEED.into()));
-            }
+            // Without a `seed` the reference uses its own (REFERENCE_SEED), so a `path` cell never
+            // shares random numbers with the reference it is compared with.
+            let settings = suite.reference_settings.clone();
             let request = ReferenceRequest { width, height, spp: s.reference_spp, settings };
             let start = Instant::now();
             let posed = scene.posed(time);

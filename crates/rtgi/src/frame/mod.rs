@@ -866,4 +866,30 @@ mod tests {
     fn gbuffer_shader_validates() {
         validate("gbuffer", include_str!("gbuffer.wgsl"), &Defines::new());
     }
+
+    /// The adapter check (`gpu::context::REQUIRED_FORMAT_USAGES`, a layer below, which cannot name these
+    /// formats) asks every adapter for what the frame does with its textures.
+    #[test]
+    fn the_adapter_check_covers_the_frame_formats() {
+        use super::*;
+        use wgpu::TextureUsages as U;
+        let required = crate::gpu::context::REQUIRED_FORMAT_USAGES;
+        let needs = [
+            (ALBEDO_FORMAT, U::RENDER_ATTACHMENT),
+            (NORMAL_FORMAT, U::RENDER_ATTACHMENT),
+            (MATERIAL_FORMAT, U::RENDER_ATTACHMENT),
+            (EMISSION_FORMAT, U::RENDER_ATTACHMENT),
+            (DISTANCE_FORMAT, U::RENDER_ATTACHMENT),
+            (MOTION_FORMAT, U::RENDER_ATTACHMENT),
+            (INSTANCE_FORMAT, U::RENDER_ATTACHMENT),
+            (DEPTH_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING),
+            (OUTPUT_FORMAT, U::STORAGE_BINDING),
+        ];
+        for (format, usages) in needs {
+            assert!(
+                required.iter().any(|(f, u)| *f == format && u.contains(usages)),
+                "{format:?} needs {usages:?} but the adapter check does not ask for it"
+            );
+        }
+    }
 }

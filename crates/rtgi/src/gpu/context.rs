@@ -5,11 +5,13 @@ use serde::Serialize;
 /// Errors of the GPU layer.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
+    /// No adapter can run rtgi; `skipped` names each adapter found and why it was passed over.
     #[error(
-        "no GPU adapter found (wgpu backends: {backends}). Install a Vulkan driver, e.g. on Debian: \
-         apt-get install -y mesa-vulkan-drivers libvulkan1"
+        "no usable GPU adapter (wgpu backends: {backends}; {}). {}",
+        skipped_list(skipped),
+        advice(skipped)
     )]
-    NoAdapter { backends: String },
+    NoAdapter { backends: String, skipped: Vec<String> },
     #[error("could not create a device on '{adapter}': {message}")]
     Device { adapter: String, message: String },
     /// The scene or a resource is larger than the device allows; the message names the limit.
@@ -32,6 +34,115 @@ impl GpuError {
             mib(limit)
         ))
     }
+}
+
+/// How [`usable_adapters`] says an adapter was left out for its name alone.
+const NAME_MISMATCH: &str = "name does not contain";
+
+fn skipped_list(skipped: &[String]) -> String {
+    if skipped.is_empty() { "none found".into() } else { format!("skipped: {}", skipped.join("; ")) }
+}
+
+/// What to do about [`GpuError::NoAdapter`]: another name when only the name filter left adapters out,
+/// else a driver rtgi can run on.
+fn advice(skipped: &[String]) -> &'static str {
+    if !skipped.is_empty() && skipped.iter().all(|s| s.contains(NAME_MISMATCH)) {
+        "Choose one of these adapters by a part of its name"
+    } else {
+        "Install a Vulkan driver: scripts/ensure-vulkan.sh in the rtgi repository, or as root on \
+         Debian/Ubuntu `apt-get install -y mesa-vulkan-drivers libvulkan1` (Mesa's lavapipe runs \
+         Vulkan on the CPU)"
+    }
+}
+
+/// Downlevel capabilities every rtgi run needs, with what needs them. (WebGPU compliance as a whole is
+/// not required: it also asks for things rtgi never uses, such as surface view formats.)
+const REQUIRED_DOWNLEVEL: [(wgpu::DownlevelFlags, &str); 4] = [
+    (wgpu::DownlevelFlags::COMPUTE_SHADERS, "compute shaders"),
+    // The scene bind group is visible to the raster passes' vertex and fragment stages.
+    (wgpu::DownlevelFlags::VERTEX_STORAGE, "storage buffers in vertex shaders"),
+    (wgpu::DownlevelFlags::FRAGMENT_STORAGE, "storage buffers in fragment shaders"),
+    // Shadow-map lookups (`common/frame.wgsl`).
+    (wgpu::DownlevelFlags::COMPARISON_SAMPLERS, "comparison samplers"),
+];
+
+/// Texture formats and the usages rtgi's passes put them to: the G-buffer (`frame::*_FORMAT`) and the
+/// reflective shadow maps are render targets, depth and shadow maps are depth attachments that are
+/// sampled, radiance accumulates in an `Rgba32Float` storage texture. (An adapter lacking one of them
+/// could still run the techniques that do not use it — `path` renders no G-buffer — but rtgi picks
+/// adapters that run every technique, so that a comparison never depends on which adapter was found.) `frame`'s tests check that its
+/// formats are listed here (this layer cannot name them).
+pub const REQUIRED_FORMAT_USAGES: [(wgpu::TextureFormat, wgpu::TextureUsages); 7] = {
+    use wgpu::TextureFormat as F;
+    use wgpu::TextureUsages as U;
+    [
+        (F::Rgba16Float, U::RENDER_ATTACHMENT),
+        (F::Rg32Uint, U::RENDER_ATTACHMENT),
+        (F::R32Float, U::RENDER_ATTACHMENT),
+        (F::Rg32Float, U::RENDER_ATTACHMENT),
+        (F::R32Uint, U::RENDER_ATTACHMENT),
+        (F::Depth32Float, U::RENDER_ATTACHMENT.union(U::TEXTURE_BINDING)),
+        (F::Rgba32Float, U::RENDER_ATTACHMENT.union(U::STORAGE_BINDING)),
+    ]
+};
+
+/// What an adapter offers, as far as [`adapter_fit`] looks.
+pub struct AdapterCapabilities<'a> {
+    pub downlevel: wgpu::DownlevelCapabilities,
+    pub limits: wgpu::Limits,
+    /// What the device will let textures of a format do (see [`format_features_of`]).
+    pub format_features: &'a dyn Fn(wgpu::TextureFormat) -> wgpu::TextureFormatFeatures,
+}
+
+/// The capabilities of `adapter` the way a device created on it enforces them: its own per-format
+/// capabilities where it lacks WebGPU's format guarantees (GL, downlevel) or offers adapter-specific
+/// format features (which [`GpuContext::new`] requests), else WebGPU's guarantees.
+fn format_features_of(adapter: &wgpu::Adapter, format: wgpu::TextureFormat) -> wgpu::TextureFormatFeatures {
+    let own = adapter.features().contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
+        || !adapter
+            .get_downlevel_capabilities()
+            .flags
+            .contains(wgpu::DownlevelFlags::WEBGPU_TEXTURE_FORMAT_SUPPORT);
+    if own {
+        adapter.get_texture_format_features(format)
+    } else {
+        format.guaranteed_format_features(adapter.features())
+    }
+}
+
+fn flag_names<T>(names: impl Iterator<Item = (&'static str, T)>) -> String {
+    names.map(|(name, _)| name).collect::<Vec<_>>().join(" | ")
+}
+
+/// Whether rtgi can run on an adapter with `caps`: `Err` says what it lacks (every shortfall, in
+/// words). The device request itself cannot fail on features or limits (it asks for what the adapter
+/// offers), so this is where an unsuitable adapter is recognised, before any resource creation fails
+/// with a wgpu validation error.
+pub fn adapter_fit(caps: &AdapterCapabilities) -> Result<(), String> {
+    let mut missing = Vec::new();
+    for (flag, what) in REQUIRED_DOWNLEVEL {
+        if !caps.downlevel.flags.contains(flag) {
+            missing.push(format!("no {what} (downlevel flag {})", flag_names(flag.iter_names())));
+        }
+    }
+    if caps.downlevel.shader_model < wgpu::ShaderModel::Sm5 {
+        missing.push(format!("shader model {:?} below Sm5", caps.downlevel.shader_model));
+    }
+    for (format, usages) in REQUIRED_FORMAT_USAGES {
+        let lacking = usages - (caps.format_features)(format).allowed_usages;
+        if !lacking.is_empty() {
+            missing.push(format!("no {} on {format:?} textures", flag_names(lacking.iter_names())));
+        }
+    }
+    // Every pipeline binds the scene's storage buffers (techniques add their own).
+    let scene_buffers = super::scene::SCENE_STORAGE_BUFFERS;
+    if caps.limits.max_storage_buffers_per_shader_stage < scene_buffers {
+        missing.push(format!(
+            "max_storage_buffers_per_shader_stage {} below the scene's {scene_buffers}",
+            caps.limits.max_storage_buffers_per_shader_stage
+        ));
+    }
+    if missing.is_empty() { Ok(()) } else { Err(missing.join(", ")) }
 }
 
 /// What rtgi reports about the adapter it runs on.
@@ -97,37 +208,76 @@ fn device_rank(t: wgpu::DeviceType) -> u32 {
     }
 }
 
+/// The adapters among `adapters` that match the name filter and [`adapter_fit`]; the others are
+/// described in `skipped` as `'name' (backend, device type): reason`.
+fn usable_adapters(
+    adapters: impl Iterator<Item = wgpu::Adapter>,
+    options: &GpuOptions,
+    skipped: &mut Vec<String>,
+) -> Vec<wgpu::Adapter> {
+    let filter = options.adapter_filter.as_ref().map(|f| f.to_lowercase());
+    adapters
+        .filter(|adapter| {
+            let info = adapter.get_info();
+            let label = format!("'{}' ({:?}, {:?})", info.name, info.backend, info.device_type);
+            if let Some(f) = &filter
+                && !info.name.to_lowercase().contains(f)
+            {
+                skipped.push(format!("{label}: {NAME_MISMATCH} '{f}'"));
+                return false;
+            }
+            let format_features = |format| format_features_of(adapter, format);
+            let caps = AdapterCapabilities {
+                downlevel: adapter.get_downlevel_capabilities(),
+                limits: adapter.limits(),
+                format_features: &format_features,
+            };
+            match adapter_fit(&caps) {
+                Ok(()) => true,
+                Err(reason) => {
+                    skipped.push(format!("{label}: {reason}"));
+                    false
+                }
+            }
+        })
+        .collect()
+}
+
 impl GpuContext {
     /// Creates a headless device: prefers a discrete GPU, falls back to integrated, virtual and CPU
-    /// adapters (lavapipe). `WGPU_BACKEND` selects backends (default: all that are compiled in).
+    /// adapters (lavapipe), among the adapters rtgi can run on ([`adapter_fit`]); the error without
+    /// one lists every adapter found and why it was skipped. `WGPU_BACKEND` selects backends (default:
+    /// Vulkan, Metal, DX12, and GL only when none of them offers a usable adapter).
     pub fn new(options: &GpuOptions) -> Result<Self, GpuError> {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         // GL is a last resort (no f16, texture atomics or float32 filtering) and probing EGL prints
-        // noise on headless machines: try it only when asked for or when nothing else exists.
+        // noise on headless machines: try it only when asked for or when no other backend offers a
+        // usable adapter.
         if wgpu::Backends::from_env().is_none() {
             descriptor.backends = wgpu::Backends::PRIMARY;
         }
-        let backends = descriptor.backends;
+        let mut backends = descriptor.backends;
         let instance = wgpu::Instance::new(descriptor);
-        let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
-        if adapters.is_empty() && backends == wgpu::Backends::PRIMARY {
+        let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+        let mut skipped = Vec::new();
+        let mut usable = usable_adapters(adapters.into_iter(), options, &mut skipped);
+        if usable.is_empty() && backends == wgpu::Backends::PRIMARY {
             let mut gl = wgpu::InstanceDescriptor::new_without_display_handle();
             gl.backends = wgpu::Backends::GL;
-            adapters = pollster::block_on(wgpu::Instance::new(gl).enumerate_adapters(wgpu::Backends::GL));
-        }
-        if let Some(filter) = &options.adapter_filter {
-            let f = filter.to_lowercase();
-            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&f));
+            let gl_adapters =
+                pollster::block_on(wgpu::Instance::new(gl).enumerate_adapters(wgpu::Backends::GL));
+            usable = usable_adapters(gl_adapters.into_iter(), options, &mut skipped);
+            backends |= wgpu::Backends::GL;
         }
         // Vulkan before GL on the same device: GL lacks f16, texture atomics and float32 filtering.
-        adapters.sort_by_key(|a| {
+        usable.sort_by_key(|a| {
             let info = a.get_info();
             (device_rank(info.device_type), u32::from(info.backend != wgpu::Backend::Vulkan))
         });
-        let adapter = adapters
+        let adapter = usable
             .into_iter()
             .next()
-            .ok_or_else(|| GpuError::NoAdapter { backends: format!("{backends:?}") })?;
+            .ok_or_else(|| GpuError::NoAdapter { backends: flag_names(backends.iter_names()), skipped })?;
         let info = adapter.get_info();
         let summary = AdapterSummary {
             name: info.name.clone(),
@@ -225,5 +375,101 @@ impl GpuContext {
             return Err(GpuError::buffer_over_limit(what, bytes, "max_storage_buffer_binding_size", limit));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits(storage_buffers: u32) -> wgpu::Limits {
+        wgpu::Limits { max_storage_buffers_per_shader_stage: storage_buffers, ..Default::default() }
+    }
+
+    #[test]
+    fn a_webgpu_capable_adapter_fits() {
+        let guaranteed = |f: wgpu::TextureFormat| f.guaranteed_format_features(wgpu::Features::empty());
+        let caps = AdapterCapabilities {
+            downlevel: wgpu::DownlevelCapabilities::default(),
+            limits: limits(16),
+            format_features: &guaranteed,
+        };
+        adapter_fit(&caps).expect("WebGPU's guarantees and 16 storage buffers are enough");
+    }
+
+    /// The GL adapter of Mesa (llvmpipe): no render target of R32Float, no storage buffers in vertex
+    /// shaders; every shortfall is named.
+    #[test]
+    fn a_downlevel_adapter_is_refused_with_every_reason() {
+        let r32float_not_renderable = |f: wgpu::TextureFormat| {
+            let mut features = f.guaranteed_format_features(wgpu::Features::empty());
+            if f == wgpu::TextureFormat::R32Float {
+                features.allowed_usages -= wgpu::TextureUsages::RENDER_ATTACHMENT;
+            }
+            features
+        };
+        let mut downlevel = wgpu::DownlevelCapabilities::default();
+        downlevel.flags -= wgpu::DownlevelFlags::VERTEX_STORAGE;
+        downlevel.shader_model = wgpu::ShaderModel::Sm4;
+        let caps =
+            AdapterCapabilities { downlevel, limits: limits(4), format_features: &r32float_not_renderable };
+        let reason = adapter_fit(&caps).unwrap_err();
+        for part in [
+            "no storage buffers in vertex shaders (downlevel flag VERTEX_STORAGE)",
+            "shader model Sm4 below Sm5",
+            "no RENDER_ATTACHMENT on R32Float textures",
+            "max_storage_buffers_per_shader_stage 4 below the scene's 10",
+        ] {
+            assert!(reason.contains(part), "'{part}' missing in: {reason}");
+        }
+        assert!(!reason.contains("compute"), "{reason}");
+    }
+
+    #[test]
+    fn the_no_adapter_error_lists_each_adapter_and_the_driver_to_install() {
+        let e = GpuError::NoAdapter {
+            backends: "GL".into(),
+            skipped: vec![
+                "'llvmpipe' (Gl, Cpu): no RENDER_ATTACHMENT on R32Float textures".into(),
+                "'other' (Gl, Cpu): name does not contain 'x'".into(),
+            ],
+        }
+        .to_string();
+        assert!(!e.contains('\n'), "one line: {e}");
+        for part in [
+            "skipped: 'llvmpipe' (Gl, Cpu): no RENDER_ATTACHMENT on R32Float textures; 'other'",
+            "scripts/ensure-vulkan.sh",
+            "mesa-vulkan-drivers libvulkan1",
+        ] {
+            assert!(e.contains(part), "'{part}' missing in: {e}");
+        }
+        let none = GpuError::NoAdapter { backends: "VULKAN".into(), skipped: vec![] }.to_string();
+        assert!(
+            none.contains("wgpu backends: VULKAN; none found") && none.contains("ensure-vulkan.sh"),
+            "{none}"
+        );
+        // Only the name filter left adapters out: installing drivers would not help.
+        let filtered = GpuError::NoAdapter {
+            backends: "VULKAN".into(),
+            skipped: vec![format!("'llvmpipe' (Vulkan, Cpu): {NAME_MISMATCH} 'nvidia'")],
+        }
+        .to_string();
+        assert!(
+            filtered.contains("Choose one of these adapters") && !filtered.contains("ensure-vulkan"),
+            "{filtered}"
+        );
+    }
+
+    /// The adapter the tests run on (lavapipe) fits, with the capabilities it really reports.
+    #[test]
+    fn the_test_adapter_fits() {
+        let ctx = GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (lavapipe)");
+        let format_features = |format| format_features_of(&ctx.adapter, format);
+        let caps = AdapterCapabilities {
+            downlevel: ctx.adapter.get_downlevel_capabilities(),
+            limits: ctx.adapter.limits(),
+            format_features: &format_features,
+        };
+        adapter_fit(&caps).expect("the adapter GpuContext::new chose");
     }
 }

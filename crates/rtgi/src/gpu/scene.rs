@@ -383,33 +383,41 @@ fn texture_layout_entry(
     }
 }
 
+/// Storage buffers in bind group 0, visible to every stage: the least any adapter must bind per stage.
+pub const SCENE_STORAGE_BUFFERS: u32 = 10;
+
+/// The entries of bind group 0 (`common/scene.wgsl`).
+fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
+    let all = wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE;
+    [
+        buffer_layout_entry(0, all, wgpu::BufferBindingType::Uniform),
+        storage_layout_entry(1),
+        storage_layout_entry(2),
+        storage_layout_entry(3),
+        storage_layout_entry(4),
+        storage_layout_entry(5),
+        storage_layout_entry(6),
+        storage_layout_entry(7),
+        texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, true),
+        texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, true),
+        wgpu::BindGroupLayoutEntry {
+            binding: 10,
+            visibility: all,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        },
+        texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
+        storage_layout_entry(12),
+        storage_layout_entry(13),
+        storage_layout_entry(14),
+    ]
+}
+
 /// The layout of bind group 0; every pipeline that imports `common/scene.wgsl` uses it.
 pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let all = wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE;
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("scene"),
-        entries: &[
-            buffer_layout_entry(0, all, wgpu::BufferBindingType::Uniform),
-            storage_layout_entry(1),
-            storage_layout_entry(2),
-            storage_layout_entry(3),
-            storage_layout_entry(4),
-            storage_layout_entry(5),
-            storage_layout_entry(6),
-            storage_layout_entry(7),
-            texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, true),
-            texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, true),
-            wgpu::BindGroupLayoutEntry {
-                binding: 10,
-                visibility: all,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-            texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
-            storage_layout_entry(12),
-            storage_layout_entry(13),
-            storage_layout_entry(14),
-        ],
+        entries: &scene_layout_entries(),
     })
 }
 
@@ -1177,10 +1185,22 @@ pub(crate) fn mean_srgb_luminance(t: &crate::scene::Texture) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
     use crate::frame::{FrameUniforms, ShadowView};
     use crate::shaders::layout::assert_layout;
     use crate::shaders::{Defines, validate};
     use std::mem::offset_of;
+
+    #[test]
+    fn scene_storage_buffer_count_matches_the_layout() {
+        let storage = scene_layout_entries()
+            .iter()
+            .filter(|e| {
+                matches!(e.ty, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { .. }, .. })
+            })
+            .count();
+        assert_eq!(storage as u32, SCENE_STORAGE_BUFFERS);
+    }
 
     /// Moving meshes in place (a mirrored, rotated box and a scaled, rotated area light) leaves the
     /// vertex, index and emitter buffers and the scene info exactly as a fresh upload of the moved scene

@@ -466,7 +466,18 @@ impl Loader<'_> {
                 }
             }
         }
-        Ok((None, (0..self.root.nodes.len()).filter(|&i| !is_child[i]).collect()))
+        let roots: Vec<usize> = (0..self.root.nodes.len()).filter(|&i| !is_child[i]).collect();
+        // glTF allows a file without scenes and leaves what to show to the application ("when scene is
+        // undefined, runtime is not required to render anything"): drawing every root node is rtgi's
+        // choice, so it says so rather than guessing silently.
+        if !roots.is_empty() {
+            out.warnings.note(format!(
+                "the file defines no scenes; rtgi draws all {} root node{} (those that are nobody's child)",
+                roots.len(),
+                if roots.len() == 1 { "" } else { "s" }
+            ));
+        }
+        Ok((None, roots))
     }
 
     fn mesh(&self, mesh_index: usize, node_label: &str, world: Mat4, out: &mut Output) -> Result<(), String> {

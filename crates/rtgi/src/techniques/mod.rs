@@ -165,7 +165,16 @@ pub struct TechniqueInfo {
     /// creating it, so a missing one is an error naming it.
     pub features: &'static [crate::gpu::Need],
     pub motion: Motion,
+    /// Checks of parameter combinations that need neither scene nor device (each value alone is
+    /// already checked against its [`ParamSpec`]); [`resolve`] runs it, so a bad combination is an
+    /// error before any GPU work.
+    pub validate: fn(&ParamValues) -> Result<(), String>,
     pub create: fn(&TechniqueSetup) -> Result<Box<dyn Technique>, RenderError>,
+}
+
+/// [`TechniqueInfo::validate`] of techniques whose parameters are independent of each other.
+pub fn independent_params(_: &ParamValues) -> Result<(), String> {
+    Ok(())
 }
 
 /// Read-write access to the `OUTPUT_FORMAT` radiance texture: every technique accumulates into it in
@@ -198,5 +207,6 @@ pub fn resolve(
         )
     })?;
     let values = ParamValues::from_settings(name, info.params, settings)?;
+    (info.validate)(&values).map_err(|e| format!("{name}: {e}"))?;
     Ok((info, values))
 }

@@ -254,6 +254,29 @@ fn strips_fans_and_unindexed_primitives_become_triangle_lists() {
     assert_contains(&scene.warnings.join("\n"), &["mesh 'modes': point and line primitives skipped"]);
 }
 
+/// Without `scenes`, glTF leaves what to draw to the application: rtgi draws every root node and warns.
+#[test]
+fn file_without_scenes_draws_every_root_node_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = triangle_gltf(&[0, 1, 2]);
+    // Two root nodes and a child of the second: the child comes with its parent, drawn once.
+    doc["nodes"] = json!([
+        { "mesh": 0 },
+        { "mesh": 0, "translation": [2.0, 0.0, 0.0], "children": [2] },
+        { "mesh": 0, "translation": [0.0, 2.0, 0.0] }
+    ]);
+    let with_scenes = load(&write_json(dir.path(), "with.gltf", &doc)).unwrap();
+    assert!(with_scenes.warnings.is_empty(), "{:?}", with_scenes.warnings);
+    assert_eq!(with_scenes.meshes.len(), 1, "the scene lists node 0 only");
+    let object = doc.as_object_mut().unwrap();
+    object.remove("scene");
+    object.remove("scenes");
+    let scene = load(&write_json(dir.path(), "without.gltf", &doc)).unwrap();
+    assert_eq!(scene.meshes.len(), 3, "every root node with its children");
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert_contains(&scene.warnings[0], &["no scenes", "all 2 root nodes"]);
+}
+
 #[test]
 fn unsupported_features_become_warnings_naming_the_material() {
     let dir = tempfile::tempdir().unwrap();

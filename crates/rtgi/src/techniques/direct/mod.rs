@@ -62,6 +62,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate: super::independent_params,
     create,
 };
 

@@ -9,7 +9,9 @@
 // Bounded geometry term: when the VPL's part of the geometry term, G = cos θ_vpl / d², exceeds
 // G_MAX (> 0), the VPL's light is scaled by G_MAX / G. (The receiver's cos θ_x is left out so that both
 // variants bound the same thing: the SH variant applies the receiver's cosine only after filtering, and a
-// VPL beside a receiver at a grazing angle would otherwise ring through the band-limited cosine.) The luminance of incident light kept and lost is written to `clamp_stats`, and in its w whether the pixel's data had to be scaled into the half-float range (`fit_half`). With
+// VPL beside a receiver at a grazing angle would otherwise ring through the band-limited cosine.) The
+// luminance × cos θ_x of the unoccluded VPLs' light kept and lost is written to `clamp_stats`, and in
+// its w whether the pixel's data had to be scaled into the half-float range (`fit_half`). With
 // COMPENSATE, one uniformly sampled hemisphere ray per pixel adds back the clamped part (Kollig & Keller
 // 2004, one level): if it hits y with G(x, y) > G_MAX, y's outgoing radiance towards x — its emission
 // (unless direct light comes from rasterisation) plus the same VPLs gathered at y — weighted by
@@ -117,15 +119,17 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             if max3(inc.weight) <= 0.0 || dot(s.geometric_normal, inc.direction) <= 0.0 {
                 continue;
             }
+            // Occluded VPLs deliver nothing, so the bound removes nothing of theirs either: the
+            // shadow ray comes before the bookkeeping of what the bound keeps and loses.
+            if trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)) {
+                continue;
+            }
             let cos_x = max(dot(s.normal, inc.direction), 0.0);
             var w = inc.weight;
             if G_MAX > 0.0 && inc.geometry > G_MAX {
                 let kept_fraction = G_MAX / inc.geometry;
                 lost += luminance(w) * cos_x * (1.0 - kept_fraction);
                 w *= kept_fraction;
-            }
-            if trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)) {
-                continue;
             }
             kept += luminance(w) * cos_x;
             if SH {

@@ -17,7 +17,7 @@ use wgpu::util::DeviceExt;
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::scene::{LIGHT_DIRECTIONAL, LIGHT_SPOT, luminance, mean_srgb_luminance};
 use crate::gpu::{GpuContext, Profiler, readback};
-use crate::params::{ParamKind, ParamSpec};
+use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::scene::Scene;
 use crate::shaders::Defines;
 use crate::techniques::RenderError;
@@ -121,6 +121,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate,
     create: create_classic,
 };
 
@@ -131,6 +132,7 @@ pub const SH_INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate,
     create: create_sh,
 };
 
@@ -376,6 +378,26 @@ fn create_sh(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> 
     create(setup, Variant::Sh)
 }
 
+/// The parameter combinations that leave a set without VPLs, checked before any GPU work. (That every
+/// set holds one VPL per analytic light with `direct=vpl` depends on the scene: `create` checks it.)
+fn validate(p: &ParamValues) -> Result<(), String> {
+    let (ix, iy) = p.size2("interleave");
+    let sets = ix * iy;
+    let vpls = p.int("vpls") as u32;
+    if vpls < sets {
+        return Err(format!(
+            "vpls={vpls} gives no VPL to each of the {sets} interleaving sets ({ix}x{iy}); \
+             use vpls >= {sets} or a smaller interleave"
+        ));
+    }
+    if p.choice("direct") == "raster" && p.int("depth") == 0 {
+        return Err(
+            "depth=0 with direct=raster leaves no VPLs (depth 0 stores VPLs on the lights only)".into()
+        );
+    }
+    Ok(())
+}
+
 fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>, RenderError> {
     let ctx = setup.ctx;
     let p = setup.params;
@@ -400,21 +422,12 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         ("sets".to_string(), f64::from(sets)),
         ("survival".to_string(), f64::from(survival)),
     ]);
-    if slots_per_set == 0 {
-        return Err(RenderError::InvalidSettings(format!(
-            "{name}: vpls={vpls} gives no VPL to each of the {sets} interleaving sets ({ix}x{iy}); \
-             use vpls >= {sets} or a smaller interleave"
-        )));
-    }
+    // `resolve` ran this already; again here so that no caller gets a technique with empty VPL sets.
+    validate(p).map_err(|e| RenderError::InvalidSettings(format!("{name}: {e}")))?;
     if !direct_raster && analytic_lights > slots_per_set {
         return Err(RenderError::InvalidSettings(format!(
             "{name}: with direct=vpl every interleaving set holds one VPL per analytic light ({analytic_lights}), \
              but vpls={vpls} gives {slots_per_set} per set ({ix}x{iy}); raise vpls or use direct=raster"
-        )));
-    }
-    if direct_raster && depth == 0 {
-        return Err(RenderError::InvalidSettings(format!(
-            "{name}: depth=0 with direct=raster leaves no VPLs (depth 0 stores VPLs on the lights only)"
         )));
     }
 

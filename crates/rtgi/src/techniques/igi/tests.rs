@@ -131,3 +131,26 @@ fn light_entries_are_chosen_by_power() {
     assert_eq!(e[2].kind, ENTRY_EMISSIVE);
     assert_eq!(e.last().map(|x| x.cdf), Some(1.0));
 }
+
+/// Combinations that leave interleaving sets without VPLs are refused when the parameters are resolved,
+/// before any scene upload or device work (the CLI reports them without touching the GPU).
+#[test]
+fn parameters_leaving_sets_without_vpls_are_refused_by_resolve() {
+    let settings = |pairs: &[(&str, &str)]| -> Vec<(String, String)> {
+        pairs.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+    };
+    for name in ["igi", "igi-sh"] {
+        let e = crate::techniques::resolve(name, &settings(&[("vpls", "8"), ("interleave", "4x4")]))
+            .err()
+            .expect("8 VPLs over 16 sets");
+        assert!(e.starts_with(&format!("{name}: vpls=8")) && e.contains("16 interleaving sets (4x4)"), "{e}");
+        crate::techniques::resolve(name, &settings(&[("vpls", "16"), ("interleave", "4x4")]))
+            .expect("one VPL per set");
+        let e = crate::techniques::resolve(name, &settings(&[("depth", "0"), ("direct", "raster")]))
+            .err()
+            .expect("depth 0 with raster direct light");
+        assert!(e.contains("depth=0 with direct=raster leaves no VPLs"), "{e}");
+        crate::techniques::resolve(name, &settings(&[("depth", "0"), ("direct", "vpl")]))
+            .expect("VPLs on the lights");
+    }
+}

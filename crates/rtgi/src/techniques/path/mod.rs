@@ -49,12 +49,6 @@ const PARAMS: &[ParamSpec] = &[
     },
 ];
 
-/// The composed path tracer source (with every shared module it imports), for the reference cache's
-/// renderer version.
-pub fn composed_source_for_hash() -> String {
-    crate::shaders::compose("path", include_str!("path.wgsl"), &Defines::new()).unwrap_or_default()
-}
-
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "path",
     description: "reference path tracer: NEE for every light, GGX VNDF + Lambert BRDF sampling, MIS, roulette",
@@ -62,6 +56,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: false },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate: super::independent_params,
     create,
 };
 

@@ -126,6 +126,7 @@ pub const RSM_INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate: super::independent_params,
     create: |setup| Ok(Box::new(gather::Gather::new(setup, (1, 1), setup.params.int("downsample") as u32)?)),
 };
 
@@ -137,6 +138,7 @@ pub const RSM_INTERLEAVED_INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate: super::independent_params,
     create: |setup| Ok(Box::new(gather::Gather::new(setup, interleave_param(setup.params)?, 1)?)),
 };
 
@@ -148,6 +150,7 @@ pub const SII_INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
+    validate: super::independent_params,
     create: |setup| Ok(Box::new(splat::Splat::new(setup, interleave_param(setup.params)?)?)),
 };
 

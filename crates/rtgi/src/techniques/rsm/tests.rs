@@ -74,23 +74,116 @@ fn shaders_validate() {
     );
 }
 
+/// The adapter check (`gpu::context::REQUIRED_FORMAT_USAGES`) asks for the RSM's render targets.
+#[test]
+fn the_adapter_check_covers_the_rsm_formats() {
+    let required = crate::gpu::context::REQUIRED_FORMAT_USAGES;
+    for format in [map::POSITION_FORMAT, map::NORMAL_FORMAT, map::INTENSITY_FORMAT] {
+        assert!(
+            required.iter().any(|(f, u)| *f == format && u.contains(wgpu::TextureUsages::RENDER_ATTACHMENT)),
+            "{format:?}"
+        );
+    }
+}
+
+/// What `atlas.wgsl` computes for one layout, evaluated on the GPU: per atlas texel (subset, source
+/// pixel x, y, valid), per image pixel its atlas texel.
+struct GpuAtlas {
+    texels: Vec<[u32; 4]>,
+    pixels: Vec<[u32; 2]>,
+}
+
+fn evaluate_atlas_on_gpu(ctx: &crate::gpu::GpuContext, l: &AtlasLayout, w: u32, h: u32) -> GpuAtlas {
+    use crate::gpu::readback::read_buffer;
+    use wgpu::util::DeviceExt;
+    let (aw, ah) = l.size();
+    let size = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("frame size"),
+        contents: bytemuck::cast_slice(&[w, h, 0, 0]),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let texel_bytes = u64::from(aw * ah) * 16;
+    let pixel_bytes = u64::from(w * h) * 8;
+    let texels = compute::storage_buffer(ctx, "atlas texels", texel_bytes);
+    let pixels = compute::storage_buffer(ctx, "atlas pixels", pixel_bytes);
+    let bgl = compute::layout(
+        ctx,
+        "atlas probe",
+        &[
+            compute::uniform_entry(0),
+            compute::storage_buffer_entry(1, false),
+            compute::storage_buffer_entry(2, false),
+        ],
+    );
+    let group = compute::bind_group(
+        ctx,
+        "atlas probe",
+        &bgl,
+        &[size.as_entire_binding(), texels.as_entire_binding(), pixels.as_entire_binding()],
+    );
+    // `atlas.wgsl` reads the image size from the frame uniforms; this stands in for them.
+    let source = format!(
+        "{}\n{}",
+        interleave::ATLAS_WGSL,
+        r"
+struct FrameSize { size: vec2u, unused: vec2u }
+@group(0) @binding(0) var<uniform> frame: FrameSize;
+@group(0) @binding(1) var<storage, read_write> texels: array<vec4u>;
+@group(0) @binding(2) var<storage, read_write> pixels: array<vec2u>;
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let size = atlas_size();
+    if all(id.xy < size) {
+        let s = atlas_source(id.xy);
+        texels[id.y * size.x + id.x] = vec4u(atlas_subset(id.xy), s.pixel, u32(s.valid));
+    }
+    if all(id.xy < frame.size) {
+        pixels[id.y * frame.size.x + id.x] = atlas_of_pixel(id.xy);
+    }
+}
+"
+    );
+    let pipeline = compute::pipeline(ctx, "atlas probe", &source, l.defines(Defines::new()), "main", &[&bgl])
+        .expect("atlas probe pipeline");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    let groups = [aw.max(w).div_ceil(8), ah.max(h).div_ceil(8), 1];
+    compute::dispatch(&mut encoder, "atlas probe", &pipeline, &[&group], groups);
+    ctx.queue.submit([encoder.finish()]);
+    let texels = read_buffer(ctx, &texels, 0, texel_bytes).expect("texels");
+    let pixels = read_buffer(ctx, &pixels, 0, pixel_bytes).expect("pixels");
+    GpuAtlas {
+        texels: bytemuck::cast_slice(&texels).to_vec(),
+        pixels: bytemuck::cast_slice(&pixels).to_vec(),
+    }
+}
+
+/// The interleaved layout as the GPU computes it (`atlas.wgsl`, read back, not its Rust twin): every
+/// pixel lands in exactly one texel of its own sub-buffer, `atlas_of_pixel` inverts `atlas_source`,
+/// and sub-buffers are decimated copies. The Rust twin, which tests use to interpret atlases, agrees.
 #[test]
 fn atlas_layout_is_a_bijection() {
+    let ctx = crate::gpu::GpuContext::new(&crate::gpu::GpuOptions::default()).expect("GPU adapter");
     for (w, h) in [(64, 48), (61, 37)] {
         for (n, m) in [(1, 1), (2, 2), (2, 4), (4, 4), (8, 8), (3, 5)] {
             let l = AtlasLayout::interleaved(w, h, n, m);
+            let gpu = evaluate_atlas_on_gpu(&ctx, &l, w, h);
             let (aw, ah) = l.size();
             let mut seen = vec![0u32; (w * h) as usize];
             let mut per_subset = vec![0u32; (n * m) as usize];
             for ay in 0..ah {
                 for ax in 0..aw {
-                    if let Some(p) = l.source((ax, ay), w, h) {
-                        seen[(p.1 * w + p.0) as usize] += 1;
-                        assert_eq!(l.of_pixel(p), (ax, ay));
-                        let s = l.subset((ax, ay));
-                        assert_eq!(s, p.0 % n + n * (p.1 % m), "sub-buffer of pixel {p:?}");
-                        per_subset[s as usize] += 1;
+                    let [subset, px, py, valid] = gpu.texels[(ay * aw + ax) as usize];
+                    let twin = l.source((ax, ay), w, h);
+                    assert_eq!(subset, l.subset((ax, ay)), "{w}x{h} {n}x{m}: subset of texel ({ax}, {ay})");
+                    assert_eq!(valid == 1, twin.is_some(), "{w}x{h} {n}x{m}: texel ({ax}, {ay}) valid");
+                    if valid == 0 {
+                        continue;
                     }
+                    assert_eq!(Some((px, py)), twin, "{w}x{h} {n}x{m}: source of texel ({ax}, {ay})");
+                    seen[(py * w + px) as usize] += 1;
+                    assert_eq!(gpu.pixels[(py * w + px) as usize], [ax, ay], "atlas_of_pixel({px}, {py})");
+                    assert_eq!(subset, px % n + n * (py % m), "sub-buffer of pixel ({px}, {py})");
+                    per_subset[subset as usize] += 1;
                 }
             }
             assert!(seen.iter().all(|&c| c == 1), "{w}x{h} {n}x{m}: every pixel exactly once");
@@ -100,6 +193,27 @@ fn atlas_layout_is_a_bijection() {
                 let cols = (w - i).div_ceil(n);
                 let rows = (h - j).div_ceil(m);
                 assert_eq!(c, cols * rows, "{w}x{h} {n}x{m}: sub-buffer {s}");
+            }
+        }
+    }
+}
+
+/// The reduced-resolution layout on the GPU: texel c stands for pixel c·f + f/2 (clamped to the image),
+/// one subset, and texels are valid exactly where c·f lies inside the image.
+#[test]
+fn reduced_atlas_texels_stand_for_the_centre_of_their_block() {
+    let ctx = crate::gpu::GpuContext::new(&crate::gpu::GpuOptions::default()).expect("GPU adapter");
+    for (w, h, f) in [(64, 48, 2), (61, 37, 2), (61, 37, 4)] {
+        let l = AtlasLayout::reduced(w, h, f);
+        let gpu = evaluate_atlas_on_gpu(&ctx, &l, w, h);
+        let (aw, ah) = l.size();
+        for ay in 0..ah {
+            for ax in 0..aw {
+                let [subset, px, py, valid] = gpu.texels[(ay * aw + ax) as usize];
+                assert_eq!(subset, 0);
+                assert_eq!(valid == 1, ax * f < w && ay * f < h, "{w}x{h}/{f}: texel ({ax}, {ay})");
+                let expected = ((ax * f + f / 2).min(w - 1), (ay * f + f / 2).min(h - 1));
+                assert_eq!((px, py), expected, "{w}x{h}/{f}: texel ({ax}, {ay})");
             }
         }
     }
