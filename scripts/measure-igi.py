@@ -82,11 +82,11 @@ def main():
              "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are lavapipe wall times of the frames after the first (which includes lazy shader compilation); compare passes with each other, not with GPU figures. The closing note of issue 4 and the README read these tables.", ""]
 
     # 1. Convergence on cornell.
-    lines += ["## Convergence to the full-GI reference (cornell, interleave 4x4, filter on, g_max=0)", "",
+    lines += ["## Convergence to the full-GI reference (cornell, interleave 4x4, filter on, g_max=0, direct=vpl)", "",
               "| technique | VPLs | FLIP | relMSE |", "|---|---|---|---|"]
     for technique in ("igi", "igi-sh"):
         for vpls in (64, 256, 1024, 4096):
-            exr, st = render(f"conv-{technique}-{vpls}", "cornell", technique, f"vpls={vpls}")
+            exr, st = render(f"conv-{technique}-{vpls}", "cornell", technique, f"vpls={vpls}", "direct=vpl")
             m = compare(cornell, exr)
             lines.append(f"| {technique} | {vpls} | {m['flip']:.4f} | {m['rel_mse']:.5f} |")
     lines.append("")
@@ -125,8 +125,8 @@ def main():
     lines.append("")
 
     # 4. Diffuse agreement.
-    a, _ = render("agree-igi", "cornell", "igi", "vpls=1024")
-    b, _ = render("agree-igi-sh", "cornell", "igi-sh", "vpls=1024")
+    a, _ = render("agree-igi", "cornell", "igi", "vpls=1024", "direct=vpl")
+    b, _ = render("agree-igi-sh", "cornell", "igi-sh", "vpls=1024", "direct=vpl")
     m = compare(a, b)
     lines += ["## igi vs igi-sh on the diffuse cornell (1024 VPLs, same VPLs)", "",
               f"FLIP {m['flip']:.4f}, relMSE {m['rel_mse']:.5f} between the two images.", ""]
@@ -139,7 +139,7 @@ def main():
     for vpls in (256, 1024, 4096):
         costs = {}
         for technique in ("igi", "igi-sh"):
-            _, costs[technique] = render(f"cost-{technique}-{vpls}", "cornell", technique, f"vpls={vpls}",
+            _, costs[technique] = render(f"cost-{technique}-{vpls}", "cornell", technique, f"vpls={vpls}", "direct=vpl",
                                          frames=3)
         for n in names:
             a, b = pass_ms(costs["igi"], n), pass_ms(costs["igi-sh"], n)
