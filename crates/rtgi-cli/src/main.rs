@@ -262,6 +262,8 @@ fn compare(reference: &Path, test: &Path, json: bool, images: &ImageOptions) -> 
     }
     let r = rtgi::image::HdrImage::read(reference)?;
     let t = rtgi::image::HdrImage::read(test)?;
+    let names = (reference.display().to_string(), test.display().to_string());
+    rtgi::metrics::check_all_finite(&[(&r, &names.0), (&t, &names.1)])?;
     let m = rtgi::metrics::compare(&r, &t)
         .with_context(|| format!("comparing {} with {}", test.display(), reference.display()))?;
     if let Some(path) = error_map {

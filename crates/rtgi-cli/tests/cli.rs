@@ -350,6 +350,10 @@ fn compare_refuses_images_with_nan_and_counts_them() {
     write_exr(dir.path(), "t.exr", 2, 1, vec![0.5, f32::NAN, 0.5, f32::INFINITY, 0.5, 0.5]);
     let line = expect_error(&rtgi_in(dir.path(), &["compare", "r.exr", "t.exr", "--json"]));
     assert!(line.contains("t.exr") && line.contains("holds 2 non-finite pixel(s)"), "{line}");
+    // Both images are counted, not only the first that fails.
+    write_exr(dir.path(), "r.exr", 2, 1, vec![f32::NAN, 0.5, 0.5, 0.5, 0.5, 0.5]);
+    let line = expect_error(&rtgi_in(dir.path(), &["compare", "r.exr", "t.exr", "--json"]));
+    assert!(line.contains("r.exr holds 1 non-finite") && line.contains("t.exr holds 2 non-finite"), "{line}");
 }
 
 /// A 16×16 frame: a ramp plus deterministic noise of `noise` amplitude (seeded per frame).

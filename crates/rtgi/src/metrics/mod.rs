@@ -33,6 +33,9 @@ pub enum MetricsError {
          the metrics are undefined on them"
     )]
     NonFinite { image: String, count: usize, total: usize, x: u32, y: u32 },
+    /// Several images checked together ([`check_all_finite`]): one clause per image holding any.
+    #[error("{}; the metrics are undefined on them", .0.join("; "))]
+    NonFiniteImages(Vec<String>),
 }
 
 /// Pixels of `image` with a NaN or infinite channel: their count and the first (x, y), rows from the top.
@@ -62,6 +65,25 @@ pub fn check_finite(image: &HdrImage, name: &str) -> Result<(), MetricsError> {
     }
 }
 
+/// Like [`check_finite`] for several (image, name) pairs at once, so an error counts the non-finite
+/// pixels of every image that holds some, not only of the first.
+pub fn check_all_finite(images: &[(&HdrImage, &str)]) -> Result<(), MetricsError> {
+    let clauses: Vec<String> = images
+        .iter()
+        .filter_map(|(image, name)| match non_finite_pixels(image) {
+            (0, _) => None,
+            (count, first) => {
+                let (x, y) = first.unwrap_or_default();
+                let total = image.rgb.len() / 3;
+                Some(format!(
+                    "{name} holds {count} non-finite pixel(s) (NaN or ±inf) of {total}, the first at ({x}, {y})"
+                ))
+            }
+        })
+        .collect();
+    if clauses.is_empty() { Ok(()) } else { Err(MetricsError::NonFiniteImages(clauses)) }
+}
+
 /// The three error figures of a comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Metrics {
@@ -82,8 +104,7 @@ fn check(reference: &HdrImage, test: &HdrImage) -> Result<(), MetricsError> {
     if reference.rgb.is_empty() {
         return Err(MetricsError::Empty);
     }
-    check_finite(reference, "reference")?;
-    check_finite(test, "test")
+    check_all_finite(&[(reference, "reference"), (test, "test")])
 }
 
 /// Mean linear radiance (RGB) of the pixels in the rectangle at (x, y) of size w×h.
