@@ -69,6 +69,9 @@ fn write_outputs(results: &BenchResults, out: &Path) -> anyhow::Result<()> {
     write("results.json", &serde_json::to_string_pretty(results)?)?;
     write("report.html", &report::html(results))?;
     write("report.md", &report::markdown(results, "report.html"))?;
+    for (name, svg) in report::plot_files(results) {
+        write(&name, &svg)?;
+    }
     Ok(())
 }
 

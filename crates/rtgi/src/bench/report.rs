@@ -505,8 +505,21 @@ img {{ image-rendering: pixelated; vertical-align: middle; }}
     out
 }
 
-/// The Markdown summary committed under `docs/measurements/`: provenance, the front per scene, and
-/// every cell's figures.
+/// The file name of a group's Pareto plot among [`plot_files`].
+fn plot_name(group: &Group) -> String {
+    let scene: String =
+        group.scene.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
+    format!("pareto-{scene}-{}x{}.svg", group.width, group.height)
+}
+
+/// Every group's Pareto plot as a standalone SVG file (name, contents), for pages that show images but
+/// not inline SVG (the Markdown report links them).
+pub fn plot_files(results: &BenchResults) -> Vec<(String, String)> {
+    groups(results).iter().map(|g| (plot_name(g), pareto_svg(g))).collect()
+}
+
+/// The Markdown summary committed under `docs/measurements/`: provenance, the front per scene (with
+/// the plot from [`plot_files`]), and every cell's figures.
 pub fn markdown(results: &BenchResults, html_name: &str) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "# rtgi bench: {}\n", results.suite.name);
@@ -531,6 +544,7 @@ pub fn markdown(results: &BenchResults, html_name: &str) -> String {
     for group in groups(results) {
         let _ = writeln!(out, "## {} at {}×{}\n", group.scene, group.width, group.height);
         let _ = writeln!(out, "{}\n", front_summary(&group));
+        let _ = writeln!(out, "![FLIP against time per frame, {}]({})\n", group.scene, plot_name(&group));
         out.push_str("| technique | sweep | ms/frame | p95 | FLIP | path FLIP at equal time | relMSE | GPU MiB | front |\n|---|---|---|---|---|---|---|---|---|\n");
         let front = group.front();
         for c in &group.cells {
