@@ -38,9 +38,12 @@ const BVH_STACK_SIZE: u32 = 32u;
 const BVH_NO_HIT: u32 = 0xffffffffu;
 const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
 const BVH_INSTANCE_LEAF: u32 = 7u;
-// Box exit distances are scaled by 1 + 2γ₃ (Ize 2013, "Robust BVH Ray Traversal") so rounding never
-// culls a box the ray touches, e.g. one whose face holds a triangle.
-const BVH_BOX_EXIT_SCALE: f32 = 1.0000004;
+// Box exit distances are scaled by 1 + 16u (u = 2^-24) so rounding never culls a box the ray touches,
+// e.g. one whose face holds a triangle (Ize 2013, "Robust BVH Ray Traversal", whose 1 + 2γ₃ assumes a
+// correctly rounded 1/dir). WGSL only promises 2.5 ulp (≤ 5u) for a division, so a slab distance
+// (b − o)·(1/d) is within 7u of exact, the entry may come out 7u high and the exit 7u low, and
+// (1 + 7u) / ((1 − 7u)(1 − u)) < 1 + 16u covers both plus the rounding of the product below.
+const BVH_BOX_EXIT_SCALE: f32 = 1.000001;
 // Direction components below this are replaced by ±this before inverting: no inf × 0 = NaN in slabs.
 const BVH_MIN_DIR_COMPONENT: f32 = 1e-20;
 
