@@ -156,7 +156,10 @@ fn bvh_cpu_traversal_matches_brute_force_on_soups() {
     for (n, seed) in [(1, 1), (3, 2), (5, 3), (37, 4), (1000, 5), (20_000, 6)] {
         let tris = geo::triangle_soup(n, seed);
         let a = check_against_brute_force(&format!("soup {n}"), &tris, 3000, seed + 100);
-        assert!(n < 1000 || a.hits > a.rays / 4, "too few hits to test anything: {a:?}");
+        // Measured: 696 of 3000 rays hit 1000 triangles, 1479 hit 20 000. (797 before the triangle test
+        // took no division: a ray aimed at a vertex used to hit it more often, which on a soup of
+        // isolated triangles, where every vertex is a silhouette, only rounding decides.)
+        assert!(n < 1000 || a.hits > a.rays / 5, "too few hits to test anything: {a:?}");
     }
 }
 
@@ -187,7 +190,10 @@ fn bvh_depth_stays_within_the_stack_on_pathological_input() {
         })
         .collect();
     let a = check_against_brute_force("geometric", &tris, 2000, 13);
-    assert!(a.hits > 50, "{a:?}");
+    // Measured: 41 hits. (67 before the triangle test took no division; the 26 more were rays from
+    // ~1e25 away aimed at vertices of tiny triangles, hit exactly at a vertex or an edge, where only
+    // rounding decides.)
+    assert!(a.hits > 30, "{a:?}");
     let bvh = Bvh::build(&tris, None).expect("BVH build");
     assert!(bvh.max_depth >= BVH_STACK_SIZE - 2, "the input no longer stresses the depth budget");
 }
