@@ -2,8 +2,10 @@
 //!
 //! - [`Bvh::build`]: binned SAH build on the CPU (deterministic, parallel with std threads).
 //! - [`Bvh::intersect`] / [`Bvh::occluded`]: CPU traversal with the same watertight ray–triangle test
-//!   (Woop, Benthin & Wald 2013) as `shaders/common/bvh.wgsl`, so CPU references and GPU results agree
-//!   to rounding; [`intersect_brute_force`] checks both.
+//!   (Woop, Benthin & Wald 2013) as `shaders/common/bvh.wgsl`, in the same operations, so CPU
+//!   references and GPU results take every hit-or-miss decision alike, bit for bit on a GPU with a
+//!   fused `fma` (hit distances may differ by the GPU's division error); [`intersect_brute_force`]
+//!   checks both.
 //! - [`GpuBvh`]: the two storage buffers `bvh.wgsl` reads (`bvh_nodes`, `bvh_tris`).
 //!
 //! GPU layout (both `#[repr(C)]`, matching WGSL's storage layout):
@@ -103,10 +105,16 @@ impl BvhInstance {
     /// `ray` in the instance's space. Hit distances carry over unchanged: the map is affine and the
     /// direction is not renormalised.
     pub fn ray_to_object(&self, ray: &Ray) -> Ray {
-        let map = |v: Vec3, w: f32| {
-            let p = glam::Vec4::new(v.x, v.y, v.z, w);
-            let [r0, r1, r2] = self.world_to_object.map(glam::Vec4::from);
-            Vec3::new(r0.dot(p), r1.dot(p), r2.dot(p))
+        self.map_ray::<traverse::Fused>(ray)
+    }
+
+    /// [`BvhInstance::ray_to_object`] in `bvh_affine`'s order of operations (`bvh.wgsl`), so that the
+    /// GPU moves a ray into an instance with the same rounding.
+    pub(crate) fn map_ray<A: traverse::Arithmetic>(&self, ray: &Ray) -> Ray {
+        let map = |p: Vec3, w: f32| {
+            let lane = |r: [f32; 4]| A::fma(p.x, r[0], A::fma(p.y, r[1], A::fma(p.z, r[2], w * r[3])));
+            let [r0, r1, r2] = self.world_to_object;
+            Vec3::new(lane(r0), lane(r1), lane(r2))
         };
         Ray { origin: map(ray.origin, 1.0), dir: map(ray.dir, 0.0) }
     }

@@ -160,6 +160,88 @@ pub(crate) fn sphere_in_box() -> Vec<[Vec3; 3]> {
 pub(crate) const SPHERE_IN_BOX: (Vec3, Vec3, Vec3, f32) =
     (Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.5, 1.2), Vec3::new(0.1, 0.2, 0.05), 0.6);
 
+/// A point where only rounding decides which of a triangle's neighbours a ray through it hits: one of
+/// `tri`'s vertices exactly (a third of the time) or a point on one of its edges (up to the rounding
+/// of a + (b − a)·f).
+pub(crate) fn boundary_point(rng: &mut Rng, tri: [Vec3; 3]) -> Vec3 {
+    let i = rng.index(3);
+    if rng.index(3) == 0 {
+        tri[i]
+    } else {
+        let (a, b) = (tri[i], tri[(i + 1) % 3]);
+        a + (b - a) * rng.f32()
+    }
+}
+
+/// A mesh and rays that must all hit it (see [`crack_scenes`]).
+pub(crate) struct CrackScene {
+    pub name: &'static str,
+    pub tris: Vec<[Vec3; 3]>,
+    pub rays: Vec<Ray>,
+}
+
+/// Meshes that every ray of [`crack_rays`] must hit, each with those rays: the inside of the closed
+/// [`sphere_in_box`] (outside its sphere), the inside of a closed UV sphere (its poles are fans of
+/// 48 triangles), and a flat 64 × 64 floor 40 units wide at an offset, the coordinates of a large
+/// room, seen from above. Every ray aims exactly at a vertex or at an edge point of a triangle, from
+/// close by (a few triangle sizes), where the rounding of edge functions matters most: the farther
+/// the origin, the larger an edge function is against the rounding of its products.
+pub(crate) fn crack_scenes(n: usize, seed: u64) -> Vec<CrackScene> {
+    let mut rng = Rng::new(seed);
+    let mut out = Vec::new();
+
+    let tris = sphere_in_box();
+    let (lo, hi, center, radius) = SPHERE_IN_BOX;
+    let rays = crack_rays(&mut rng, &tris, n, |rng, target| {
+        let o = target + rng.unit_vector() * rng.range(0.01, 0.3);
+        let inside = o.cmpgt(lo + 0.005).all() && o.cmplt(hi - 0.005).all();
+        (inside && (o - center).length() > radius + 0.005).then_some(o)
+    });
+    out.push(CrackScene { name: "sphere in box", tris, rays });
+
+    // The polyhedron lies within 0.99 radius of the centre everywhere (cos(π/24) ≈ 0.991).
+    let (center, radius) = (Vec3::new(0.3, -0.2, 0.1), 1.0);
+    let mut tris = Vec::new();
+    uv_sphere(&mut tris, center, radius, 24, 48);
+    let rays = crack_rays(&mut rng, &tris, n, |rng, target| {
+        let o = target + (center - target) * rng.range(0.05, 0.9) + rng.unit_vector() * 0.02;
+        ((o - center).length() < 0.95 * radius).then_some(o)
+    });
+    out.push(CrackScene { name: "inside a sphere", tris, rays });
+
+    let (corner, size) = (Vec3::new(-17.3, 1.1, 31.7), 40.0);
+    let mut tris = Vec::new();
+    grid(&mut tris, 64, corner, Vec3::X * size, Vec3::NEG_Z * size, |_, _| 0.0);
+    let rays = crack_rays(&mut rng, &tris, n, |rng, target| {
+        // Off the outer rim, where a ray may pass the floor's edge: only shared edges and vertices.
+        let rim = (target.x - corner.x).min(corner.x + size - target.x).min(target.z - (corner.z - size));
+        let rim = rim.min(corner.z - target.z);
+        let offset = Vec3::new(rng.range(-2.0, 2.0), rng.range(0.05, 3.0), rng.range(-2.0, 2.0));
+        (rim > 0.01).then_some(target + offset)
+    });
+    out.push(CrackScene { name: "floor", tris, rays });
+    out
+}
+
+/// `n` rays aimed exactly at [`boundary_point`]s of random triangles, from origins `origin` picks
+/// for each target (`None`: try another target).
+fn crack_rays(
+    rng: &mut Rng,
+    tris: &[[Vec3; 3]],
+    n: usize,
+    mut origin: impl FnMut(&mut Rng, Vec3) -> Option<Vec3>,
+) -> Vec<Ray> {
+    let mut rays = Vec::with_capacity(n);
+    while rays.len() < n {
+        let tri = tris[rng.index(tris.len())];
+        let target = boundary_point(rng, tri);
+        if let Some(o) = origin(rng, target) {
+            rays.push(Ray::new(o, target - o));
+        }
+    }
+    rays
+}
+
 /// Appends an axis-aligned box as 12 triangles.
 fn push_box(out: &mut Vec<[Vec3; 3]>, min: Vec3, max: Vec3) {
     let p = |i: u32| {

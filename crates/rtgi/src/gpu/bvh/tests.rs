@@ -5,6 +5,7 @@ use std::time::Instant;
 use glam::{Mat4, Vec3};
 
 use super::test_geometry::{self as geo, RayKind, Rng};
+use super::traverse::{self, Arithmetic, Fused};
 use super::*;
 
 /// Checks the structural invariants the GPU traversal relies on; panics with a description.
@@ -156,7 +157,10 @@ fn bvh_cpu_traversal_matches_brute_force_on_soups() {
     for (n, seed) in [(1, 1), (3, 2), (5, 3), (37, 4), (1000, 5), (20_000, 6)] {
         let tris = geo::triangle_soup(n, seed);
         let a = check_against_brute_force(&format!("soup {n}"), &tris, 3000, seed + 100);
-        assert!(n < 1000 || a.hits > a.rays / 4, "too few hits to test anything: {a:?}");
+        // Measured: 696 of 3000 rays hit 1000 triangles, 1479 hit 20 000. (797 before the triangle test
+        // took no division: a ray aimed at a vertex used to hit it more often, which on a soup of
+        // isolated triangles, where every vertex is a silhouette, only rounding decides.)
+        assert!(n < 1000 || a.hits > a.rays / 5, "too few hits to test anything: {a:?}");
     }
 }
 
@@ -187,7 +191,10 @@ fn bvh_depth_stays_within_the_stack_on_pathological_input() {
         })
         .collect();
     let a = check_against_brute_force("geometric", &tris, 2000, 13);
-    assert!(a.hits > 50, "{a:?}");
+    // Measured: 41 hits. (67 before the triangle test took no division; the 26 more were rays from
+    // ~1e25 away aimed at vertices of tiny triangles, hit exactly at a vertex or an edge, where only
+    // rounding decides.)
+    assert!(a.hits > 30, "{a:?}");
     let bvh = Bvh::build(&tris, None).expect("BVH build");
     assert!(bvh.max_depth >= BVH_STACK_SIZE - 2, "the input no longer stresses the depth budget");
 }
@@ -450,4 +457,183 @@ fn instanced_bvh_matches_brute_force_on_the_moved_geometry() {
     assert_ne!(owner(bvh.bvh.intersect(&ray, 0.0, f32::MAX)), Some(1));
     let ray = Ray::new(centre(moved[0]), Vec3::X);
     assert_eq!(owner(bvh.bvh.intersect(&ray, 0.0, f32::MAX)), Some(1));
+}
+
+/// a·b − c·d as a compiler may contract it: `fuse` 0 plain (or an fma split into a multiply and an
+/// add), 1 the first product fused, 2 the second.
+fn contracted(a: f32, b: f32, c: f32, d: f32, fuse: u8) -> f32 {
+    match fuse {
+        0 => a * b - c * d,
+        1 => a.mul_add(b, -(c * d)),
+        _ => (-c).mul_add(d, a * b),
+    }
+}
+
+/// The traversal with every product difference (the vertex transform's and the edge functions')
+/// contracted as `FUSE` says ([`contracted`]), the rest fused: what any compiler may make of it.
+struct Contracted<const FUSE: u8>;
+
+impl<const FUSE: u8> Arithmetic for Contracted<FUSE> {
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a.mul_add(b, c)
+    }
+
+    fn diff(a: f32, b: f32, c: f32, d: f32) -> f32 {
+        contracted(a, b, c, d, FUSE)
+    }
+}
+
+/// The edge function before the sorted form: q.x·p.y − q.y·p.x on the endpoints as they come,
+/// contracted as `FUSE` says. Kept only as the counter-example.
+pub(crate) struct OldEdge<const FUSE: u8>;
+
+impl<const FUSE: u8> Arithmetic for OldEdge<FUSE> {
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a.mul_add(b, c)
+    }
+
+    fn edge(px: f32, py: f32, qx: f32, qy: f32) -> f32 {
+        contracted(qx, py, qy, px, FUSE)
+    }
+}
+
+/// The algebraically antisymmetric (a·b − c·d) − (c·d − a·b) with a = q.x, b = p.y, c = q.y, d = p.x,
+/// written with explicit fma, as lavapipe (Mesa 22.3, LLVM 15) evaluates it: fma split, then
+/// ((a·b − c·d) + a·b) − c·d. Measured: this model reproduced lavapipe's output bit for bit in 16384
+/// of 16384 evaluations (and plain or fused evaluation in 13743 and 12314). A counter-example too.
+struct LavapipePaired;
+
+impl Arithmetic for LavapipePaired {
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a * b + c
+    }
+
+    fn edge(px: f32, py: f32, qx: f32, qy: f32) -> f32 {
+        let (ab, cd) = (qx * py, qy * px);
+        (ab - cd + ab) - cd
+    }
+}
+
+/// Edge pairs (p, q) in the ray's frame for which the edge function is 0 or nearly so, i.e. edges
+/// that pass through or right by the ray, where rounding decides: q a multiple of p (either side of
+/// the origin), nudged by 0 to 2 ulps; and the edges of triangles around the targets of
+/// [`geo::crack_scenes`]' rays, projected as the traversal projects them.
+fn near_zero_edges(n: usize, seed: u64) -> Vec<([f32; 2], [f32; 2])> {
+    let mut rng = Rng::new(seed);
+    let mut pairs = Vec::with_capacity(n);
+    while pairs.len() < n {
+        let scale = 2f32.powi(rng.index(20) as i32 - 10);
+        let p = [rng.range(-1.0, 1.0) * scale, rng.range(-1.0, 1.0) * scale];
+        let s = rng.range(-3.0, 3.0);
+        let nudge =
+            |x: f32, k: i32| if x == 0.0 { x } else { f32::from_bits((x.to_bits() as i32 + k) as u32) };
+        let (kx, ky) = (rng.index(5) as i32 - 2, rng.index(5) as i32 - 2);
+        pairs.push((p, [nudge(p[0] * s, kx), nudge(p[1] * s, ky)]));
+    }
+    for geo::CrackScene { tris, rays, .. } in geo::crack_scenes(n / 1000, seed) {
+        for ray in rays {
+            let r = traverse::RayData::new(&ray);
+            let target = ray.origin + ray.dir;
+            for t in tris.iter().filter(|t| t.iter().any(|v| (*v - target).length() < 0.2)) {
+                for i in 0..3 {
+                    let (a, b) = (r.project::<Fused>(t[i]), r.project::<Fused>(t[(i + 1) % 3]));
+                    pairs.push(([a.x, a.y], [b.x, b.y]));
+                }
+            }
+        }
+    }
+    pairs
+}
+
+/// (asymmetric, cracks) of an edge function over `pairs`: E(p, q) ≠ −E(q, p) bit for bit (zeros of
+/// either sign equal), and both negative (a ray there is rejected by both triangles of the edge).
+fn antisymmetry<A: Arithmetic>(pairs: &[([f32; 2], [f32; 2])]) -> (usize, usize) {
+    let (mut asymmetric, mut cracks) = (0, 0);
+    for &(p, q) in pairs {
+        let (pq, qp) = (A::edge(p[0], p[1], q[0], q[1]), A::edge(q[0], q[1], p[0], p[1]));
+        asymmetric += usize::from(pq.to_bits() != (-qp).to_bits() && !(pq == 0.0 && qp == 0.0));
+        cracks += usize::from(pq < 0.0 && qp < 0.0);
+    }
+    (asymmetric, cracks)
+}
+
+/// (a) Exact antisymmetry of the edge function, E(p, q) = −E(q, p) bit for bit, the whole of what
+/// watertightness asks of it, on edges where it is 0 or nearly: for `bvh_edges` under every
+/// contraction (plain or fma split, first product fused, second fused). The old form fails it as soon
+/// as a product is fused, with cracks; so do antisymmetric-looking forms a compiler is free to
+/// rearrange.
+#[test]
+fn edge_functions_are_antisymmetric_under_every_contraction() {
+    let pairs = near_zero_edges(200_000, 71);
+    assert_eq!(antisymmetry::<Contracted<0>>(&pairs), (0, 0), "plain");
+    assert_eq!(antisymmetry::<Contracted<1>>(&pairs), (0, 0), "first product fused");
+    assert_eq!(antisymmetry::<Contracted<2>>(&pairs), (0, 0), "second product fused");
+    assert_eq!(antisymmetry::<OldEdge<0>>(&pairs), (0, 0), "old, plain");
+    let first = antisymmetry::<OldEdge<1>>(&pairs);
+    let second = antisymmetry::<OldEdge<2>>(&pairs);
+    let lavapipe = antisymmetry::<LavapipePaired>(&pairs);
+    eprintln!(
+        "{} edges, (asymmetric, cracks): old edge function {first:?} first product fused, {second:?} \
+         second; paired form as lavapipe evaluates it {lavapipe:?}",
+        pairs.len()
+    );
+    assert!(first.1 > 0 && second.1 > 0, "the old form no longer shows cracks: {first:?} {second:?}");
+    assert!(lavapipe.0 > 0, "lavapipe's paired form no longer shows asymmetry: {lavapipe:?}");
+    // (a·b − c·d) − (c·d − a·b) is antisymmetric if both halves are contracted alike, not if a
+    // compiler contracts them differently (LLVM fuses the product with fewer uses, and once the
+    // halves share their products, fusing one half changes the other's counts).
+    let paired = |fuse: [u8; 2]| {
+        let e = |p: [f32; 2], q: [f32; 2]| {
+            contracted(q[0], p[1], q[1], p[0], fuse[0]) - contracted(q[1], p[0], q[0], p[1], fuse[1])
+        };
+        pairs.iter().filter(|&&(p, q)| e(p, q).to_bits() != (-e(q, p)).to_bits() && e(p, q) != 0.0).count()
+    };
+    for fuse in 0..3 {
+        assert_eq!(paired([fuse, fuse]), 0, "paired, both halves contracted as {fuse}");
+    }
+    assert!(paired([1, 2]) > 0, "paired, halves contracted differently, stays antisymmetric");
+}
+
+/// Rays of `rays` that `bvh` lets through in arithmetic `A` (closest-hit or any-hit query missing).
+pub(crate) fn escaped<A: Arithmetic>(bvh: &Bvh, rays: &[Ray]) -> usize {
+    let opaque = |_: u32, _: f32, _: f32| true;
+    rays.iter()
+        .filter(|r| {
+            bvh.closest::<A>(r, 0.0, f32::MAX, opaque).is_none() || !bvh.any::<A>(r, 0.0, f32::MAX, opaque)
+        })
+        .count()
+}
+
+/// (b) Rays aimed exactly at shared vertices and edge points of meshes that must stop them, from
+/// close by, hit under every contraction of the traversal's arithmetic. The old edge function, plain
+/// (the CPU traversal before), hits them too; with a product fused, as NVIDIA's compiler may, it lets
+/// some through. (The paired form as lavapipe evaluates it, asymmetric as it is, let none through
+/// here: its errors happen not to open cracks on these rays, which proves nothing.)
+#[test]
+fn rays_at_shared_vertices_and_edges_hit_under_every_contraction() {
+    let mut counter = [0; 3];
+    for geo::CrackScene { name, tris, rays } in geo::crack_scenes(20_000, 72) {
+        let bvh = Bvh::build(&tris, None).expect("BVH build");
+        assert_eq!(escaped::<Contracted<0>>(&bvh, &rays), 0, "{name}: a ray escaped (plain)");
+        assert_eq!(escaped::<Contracted<1>>(&bvh, &rays), 0, "{name}: a ray escaped (first fused)");
+        assert_eq!(escaped::<Contracted<2>>(&bvh, &rays), 0, "{name}: a ray escaped (second fused)");
+        assert_eq!(escaped::<OldEdge<0>>(&bvh, &rays), 0, "{name}: a ray escaped the old test, plain");
+        let old = [
+            escaped::<OldEdge<1>>(&bvh, &rays),
+            escaped::<OldEdge<2>>(&bvh, &rays),
+            escaped::<LavapipePaired>(&bvh, &rays),
+        ];
+        eprintln!(
+            "{name}: of {} rays, the old edge function lets {} through with the first product fused, {} \
+             with the second; the paired form as lavapipe evaluates it {}",
+            rays.len(),
+            old[0],
+            old[1],
+            old[2]
+        );
+        for (c, o) in counter.iter_mut().zip(old) {
+            *c += o;
+        }
+    }
+    assert!(counter[0] > 0 && counter[1] > 0, "the old form no longer shows a crack: {counter:?}");
 }

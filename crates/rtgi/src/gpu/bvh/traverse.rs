@@ -5,25 +5,75 @@ use glam::Vec3;
 
 use super::{BVH_STACK_SIZE, Bvh, BvhNode, Hit, Ray};
 
-/// Exit distances of box tests are scaled by 1 + 2γ₃ (Ize 2013, "Robust BVH Ray Traversal") so that
-/// rounding never culls a box the ray touches, e.g. a triangle lying in its box's face.
-pub(crate) const BOX_EXIT_SCALE: f32 = 1.000_000_4;
+/// Exit distances of box tests are scaled by 1 + 16u (u = 2^-24) so that rounding never culls a box
+/// the ray touches, e.g. a triangle lying in its box's face: Ize 2013 ("Robust BVH Ray Traversal")
+/// with a reciprocal good to 2.5 ulp, which is all WGSL promises for `bvh.wgsl`'s twin (see there).
+pub(crate) const BOX_EXIT_SCALE: f32 = 1.000_001;
 /// Direction components smaller than this are replaced by ±this before inverting, keeping the slab
 /// test free of inf × 0 = NaN.
 pub(crate) const MIN_DIR_COMPONENT: f32 = 1e-20;
 
-/// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013): the axis `kz` along which
-/// the direction is largest, the shear that maps the ray onto +z, and the safe inverse direction.
+/// How the WGSL `fma` builtin is evaluated, and (as hooks for tests) the product difference and edge
+/// functions built on it. The traversal is generic over it so that tests can run it as a GPU that
+/// splits `fma` would, under other contractions, or with the old edge function as a counter-example;
+/// everything else uses [`Fused`], monomorphised like hand-written code.
+pub(crate) trait Arithmetic {
+    fn fma(a: f32, b: f32, c: f32) -> f32;
+
+    /// a·b − c·d as `bvh.wgsl` writes it, `fma(a, b, −(c·d))`.
+    #[inline(always)]
+    fn diff(a: f32, b: f32, c: f32, d: f32) -> f32 {
+        Self::fma(a, b, -(c * d))
+    }
+
+    /// The edge function of the edge p → q, q.x·p.y − q.y·p.x: `bvh_edges`, which explains why it is
+    /// evaluated on sorted endpoints (exactly antisymmetric whatever a compiler does to it).
+    #[inline(always)]
+    fn edge(px: f32, py: f32, qx: f32, qy: f32) -> f32 {
+        if px == qx && py == qy {
+            return 0.0;
+        }
+        let swap = px > qx || (px == qx && py > qy);
+        let (lo_x, lo_y, hi_x, hi_y) = if swap { (qx, qy, px, py) } else { (px, py, qx, qy) };
+        let e = Self::diff(hi_x, lo_y, hi_y, lo_x);
+        if swap { -e } else { e }
+    }
+}
+
+/// IEEE fused multiply-add, as GPUs evaluate WGSL's `fma` (checked on the test device by
+/// `bvh_gpu_arithmetic_matches_the_cpu_twin`).
+pub(crate) struct Fused;
+
+impl Arithmetic for Fused {
+    #[inline(always)]
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a.mul_add(b, c)
+    }
+}
+
+/// WGSL's `fma` as an implementation may evaluate it: a multiply and an add, each rounded (WGSL
+/// allows this). Tests compare a GPU with this arithmetic with the CPU twin in it.
+#[cfg(test)]
+pub(crate) struct Unfused;
+
+#[cfg(test)]
+impl Arithmetic for Unfused {
+    #[inline(always)]
+    fn fma(a: f32, b: f32, c: f32) -> f32 {
+        a * b + c
+    }
+}
+
+/// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013) in `bvh.wgsl`'s form (see
+/// `BvhRay` there): the columns of the map into the ray's frame (axes permuted, x and y scaled by the
+/// dominant direction component instead of sheared by divisions) and the safe inverse direction.
 #[derive(Clone)]
 pub(crate) struct RayData {
     origin: Vec3,
     inv_dir: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    m0: Vec3,
+    m1: Vec3,
+    m2: Vec3,
 }
 
 impl RayData {
@@ -43,6 +93,13 @@ impl RayData {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
+        // (d[kx], d[ky], d[kz]) times 2^-e for |d[kz]| in [2^e, 2^(e+1)): an exact scaling.
+        let scale = f32::from_bits(0x7f00_0000u32.wrapping_sub(d[kz].to_bits() & 0x7f80_0000));
+        let s = Vec3::new(d[kx], d[ky], d[kz]) * scale;
+        let ez = Vec3::AXES[kz];
+        let row_x = s.z * Vec3::AXES[kx] - s.x * ez;
+        let row_y = s.z * Vec3::AXES[ky] - s.y * ez;
+        let m = glam::Mat3::from_cols(row_x, row_y, (1.0 / d[kz]) * ez).transpose();
         let safe = Vec3::select(
             a.cmplt(Vec3::splat(MIN_DIR_COMPONENT)),
             Vec3::select(
@@ -52,16 +109,7 @@ impl RayData {
             ),
             d,
         );
-        RayData {
-            origin: ray.origin,
-            inv_dir: 1.0 / safe,
-            kx,
-            ky,
-            kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
-        }
+        RayData { origin: ray.origin, inv_dir: 1.0 / safe, m0: m.x_axis, m1: m.y_axis, m2: m.z_axis }
     }
 
     /// Entry distance into the box, or `None` if the ray misses it within `[tmin, tmax]`.
@@ -74,12 +122,20 @@ impl RayData {
         (near <= far).then_some(near)
     }
 
-    /// The watertight ray–triangle test. Returns `(t, u, v)` for `tmin < t < tmax`, u and v being
-    /// the barycentrics of v1 and v2. Without the paper's double-precision fallback an edge function
-    /// of exactly 0 counts as inside for both triangles sharing the edge: no gaps, possibly a double
-    /// hit, which closest-hit queries resolve anyway.
+    /// A vertex in the ray's frame: `bvh_project`, one function of the vertex and the ray alone.
     #[inline(always)]
-    pub(crate) fn triangle(
+    pub(crate) fn project<A: Arithmetic>(&self, v: Vec3) -> Vec3 {
+        let p = v - self.origin;
+        let lane = |j: usize| A::fma(p.x, self.m0[j], A::fma(p.y, self.m1[j], p.z * self.m2[j]));
+        Vec3::new(lane(0), lane(1), lane(2))
+    }
+
+    /// The watertight ray–triangle test (`bvh_triangle`). Returns `(t, u, v)` for `tmin < t < tmax`,
+    /// u and v being the barycentrics of v1 and v2. Without the paper's double-precision fallback an
+    /// edge function of exactly 0 counts as inside for both triangles sharing the edge: no gaps,
+    /// possibly a double hit, which closest-hit queries resolve anyway.
+    #[inline(always)]
+    pub(crate) fn triangle<A: Arithmetic>(
         &self,
         v0: Vec3,
         v1: Vec3,
@@ -87,19 +143,13 @@ impl RayData {
         tmin: f32,
         tmax: f32,
     ) -> Option<(f32, f32, f32)> {
-        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let a = v0 - self.origin;
-        let b = v1 - self.origin;
-        let c = v2 - self.origin;
-        let ax = a[kx] - self.sx * a[kz];
-        let ay = a[ky] - self.sy * a[kz];
-        let bx = b[kx] - self.sx * b[kz];
-        let by = b[ky] - self.sy * b[kz];
-        let cx = c[kx] - self.sx * c[kz];
-        let cy = c[ky] - self.sy * c[kz];
-        let eu = cx * by - cy * bx;
-        let ev = ax * cy - ay * cx;
-        let ew = bx * ay - by * ax;
+        let a = self.project::<A>(v0);
+        let b = self.project::<A>(v1);
+        let c = self.project::<A>(v2);
+        // Edges b → c, c → a, a → b: the weights of a, b, c (the paper's U, V, W).
+        let eu = A::edge(b.x, b.y, c.x, c.y);
+        let ev = A::edge(c.x, c.y, a.x, a.y);
+        let ew = A::edge(a.x, a.y, b.x, b.y);
         if (eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0) {
             return None;
         }
@@ -107,10 +157,8 @@ impl RayData {
         if det == 0.0 {
             return None;
         }
-        let az = self.sz * a[kz];
-        let bz = self.sz * b[kz];
-        let cz = self.sz * c[kz];
-        let t = (eu * az + ev * bz + ew * cz) / det;
+        // In det's order of summation, so that a triangle at one depth gets that depth exactly.
+        let t = A::fma(ew, c.z, A::fma(ev, b.z, eu * a.z)) / det;
         if !(t > tmin && t < tmax) {
             return None;
         }
@@ -120,9 +168,9 @@ impl RayData {
 
 impl Bvh {
     /// Entering the instance of leaf `node`: the ray in its space and its bottom level's root.
-    fn enter_instance(&self, node: &BvhNode, ray: &Ray) -> (RayData, Option<u32>) {
+    fn enter_instance<A: Arithmetic>(&self, node: &BvhNode, ray: &Ray) -> (RayData, Option<u32>) {
         let instance = &self.instances[node.left_first as usize];
-        (RayData::new(&instance.ray_to_object(ray)), Some(instance.root))
+        (RayData::new(&instance.map_ray::<A>(ray)), Some(instance.root))
     }
 
     /// Closest hit with `tmin < t < tmax`; alpha-tested triangles count as opaque.
@@ -133,6 +181,17 @@ impl Bvh {
     /// Closest hit; a hit on an alpha-tested triangle counts only if `alpha(triangle, u, v)` is true
     /// (the CPU counterpart of the includer's `bvh_alpha_test` in `bvh.wgsl`).
     pub fn intersect_with(
+        &self,
+        ray: &Ray,
+        tmin: f32,
+        tmax: f32,
+        alpha: impl FnMut(u32, f32, f32) -> bool,
+    ) -> Option<Hit> {
+        self.closest::<Fused>(ray, tmin, tmax, alpha)
+    }
+
+    /// [`Bvh::intersect_with`] in the given arithmetic.
+    pub(crate) fn closest<A: Arithmetic>(
         &self,
         ray: &Ray,
         tmin: f32,
@@ -170,7 +229,7 @@ impl Bvh {
             };
             let node = &self.nodes[index as usize];
             if node.is_instance() {
-                (r, current) = self.enter_instance(node, ray);
+                (r, current) = self.enter_instance::<A>(node, ray);
                 instance_sp = sp;
                 continue;
             }
@@ -178,7 +237,7 @@ impl Bvh {
                 for tri in &self.triangles[node.left_first as usize..(node.left_first + node.count) as usize]
                 {
                     let [v0, v1, v2] = tri.vertices();
-                    if let Some((t, u, v)) = r.triangle(v0, v1, v2, tmin, t_best)
+                    if let Some((t, u, v)) = r.triangle::<A>(v0, v1, v2, tmin, t_best)
                         && (!tri.is_alpha_tested() || alpha(tri.index, u, v))
                     {
                         t_best = t;
@@ -216,6 +275,17 @@ impl Bvh {
         ray: &Ray,
         tmin: f32,
         tmax: f32,
+        alpha: impl FnMut(u32, f32, f32) -> bool,
+    ) -> bool {
+        self.any::<Fused>(ray, tmin, tmax, alpha)
+    }
+
+    /// [`Bvh::occluded_with`] in the given arithmetic.
+    pub(crate) fn any<A: Arithmetic>(
+        &self,
+        ray: &Ray,
+        tmin: f32,
+        tmax: f32,
         mut alpha: impl FnMut(u32, f32, f32) -> bool,
     ) -> bool {
         let world = RayData::new(ray);
@@ -239,7 +309,7 @@ impl Bvh {
             };
             let node = &self.nodes[index as usize];
             if node.is_instance() {
-                (r, current) = self.enter_instance(node, ray);
+                (r, current) = self.enter_instance::<A>(node, ray);
                 instance_sp = sp;
                 continue;
             }
@@ -247,7 +317,7 @@ impl Bvh {
                 for tri in &self.triangles[node.left_first as usize..(node.left_first + node.count) as usize]
                 {
                     let [v0, v1, v2] = tri.vertices();
-                    if let Some((_, u, v)) = r.triangle(v0, v1, v2, tmin, tmax)
+                    if let Some((_, u, v)) = r.triangle::<A>(v0, v1, v2, tmin, tmax)
                         && (!tri.is_alpha_tested() || alpha(tri.index, u, v))
                     {
                         return true;
@@ -272,6 +342,18 @@ impl Bvh {
 pub fn intersect_brute_force(
     triangles: &[[Vec3; 3]],
     alpha_tested: Option<&[bool]>,
+    alpha: impl FnMut(u32, f32, f32) -> bool,
+    ray: &Ray,
+    tmin: f32,
+    tmax: f32,
+) -> Option<Hit> {
+    brute_closest::<Fused>(triangles, alpha_tested, alpha, ray, tmin, tmax)
+}
+
+/// [`intersect_brute_force`] in the given arithmetic.
+pub(crate) fn brute_closest<A: Arithmetic>(
+    triangles: &[[Vec3; 3]],
+    alpha_tested: Option<&[bool]>,
     mut alpha: impl FnMut(u32, f32, f32) -> bool,
     ray: &Ray,
     tmin: f32,
@@ -281,7 +363,7 @@ pub fn intersect_brute_force(
     let mut best: Option<Hit> = None;
     let mut t_best = tmax;
     for (i, [v0, v1, v2]) in triangles.iter().enumerate() {
-        if let Some((t, u, v)) = r.triangle(*v0, *v1, *v2, tmin, t_best) {
+        if let Some((t, u, v)) = r.triangle::<A>(*v0, *v1, *v2, tmin, t_best) {
             let masked = alpha_tested.and_then(|a| a.get(i)).copied().unwrap_or(false);
             if !masked || alpha(i as u32, u, v) {
                 t_best = t;
@@ -303,7 +385,7 @@ pub fn occluded_brute_force(
 ) -> bool {
     let r = RayData::new(ray);
     triangles.iter().enumerate().any(|(i, [v0, v1, v2])| {
-        r.triangle(*v0, *v1, *v2, tmin, tmax).is_some_and(|(_, u, v)| {
+        r.triangle::<Fused>(*v0, *v1, *v2, tmin, tmax).is_some_and(|(_, u, v)| {
             !alpha_tested.and_then(|a| a.get(i)).copied().unwrap_or(false) || alpha(i as u32, u, v)
         })
     })

@@ -38,9 +38,12 @@ const BVH_STACK_SIZE: u32 = 32u;
 const BVH_NO_HIT: u32 = 0xffffffffu;
 const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
 const BVH_INSTANCE_LEAF: u32 = 7u;
-// Box exit distances are scaled by 1 + 2γ₃ (Ize 2013, "Robust BVH Ray Traversal") so rounding never
-// culls a box the ray touches, e.g. one whose face holds a triangle.
-const BVH_BOX_EXIT_SCALE: f32 = 1.0000004;
+// Box exit distances are scaled by 1 + 16u (u = 2^-24) so rounding never culls a box the ray touches,
+// e.g. one whose face holds a triangle (Ize 2013, "Robust BVH Ray Traversal", whose 1 + 2γ₃ assumes a
+// correctly rounded 1/dir). WGSL only promises 2.5 ulp (≤ 5u) for a division, so a slab distance
+// (b − o)·(1/d) is within 7u of exact, the entry may come out 7u high and the exit 7u low, and
+// (1 + 7u) / ((1 − 7u)(1 − u)) < 1 + 16u covers both plus the rounding of the product below.
+const BVH_BOX_EXIT_SCALE: f32 = 1.000001;
 // Direction components below this are replaced by ±this before inverting: no inf × 0 = NaN in slabs.
 const BVH_MIN_DIR_COMPONENT: f32 = 1e-20;
 
@@ -66,7 +69,8 @@ struct BvhNode {
     count: u32,
 }
 
-// world_to_object rows: object = (dot(row0, p), dot(row1, p), dot(row2, p)), p = (world, 1 or 0).
+// world_to_object rows: object = (dot(row0, p), dot(row1, p), dot(row2, p)), p = (world, 1 or 0),
+// evaluated by bvh_affine.
 struct BvhInstance {
     row0: vec4f,
     row1: vec4f,
@@ -78,17 +82,21 @@ fn hit_found(hit: Hit) -> bool {
     return hit.triangle != BVH_NO_HIT;
 }
 
-// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013). The paper's permutation of
-// axes (kz = dominant direction axis) and shear are folded into three rows: a vertex p relative to the
-// origin maps to (dot(p, row_x), dot(p, row_y), dot(p, row_z)), a space in which the ray is +z. Each
-// row has one 1 or S entry and zeros, so the dot products round exactly like the paper's
-// p[kx] - Sx·p[kz] (adding ±0 is exact) without dynamic vector indexing per triangle.
+// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013). The paper permutes the axes
+// (kz = dominant direction axis, kx/ky swapped when d[kz] < 0 to keep the winding) and shears by
+// d[kx]/d[kz] and d[ky]/d[kz]. Here x and y are scaled by d[kz] instead (and a power of two), which
+// multiplies every edge function by the same positive number: the same signs, t and barycentrics,
+// but no division in any hit-or-miss decision. WGSL only promises 2.5 ulp for a division, and with
+// one there a GPU rounds a vertex otherwise than the CPU twin and decides differently where rounding
+// alone decides (a ray through a silhouette vertex or edge). Only 1/d[kz] (t's scale) and inv_dir
+// (box tests, made conservative for it) divide.
 struct BvhRay {
     origin: vec3f,
     inv_dir: vec3f,
-    row_x: vec3f,
-    row_y: vec3f,
-    row_z: vec3f,
+    // Columns of the map p ↦ (x, y, z) (see bvh_project), applied without dynamic indexing.
+    m0: vec3f,
+    m1: vec3f,
+    m2: vec3f,
 }
 
 fn bvh_axis(k: u32) -> vec3f {
@@ -112,13 +120,57 @@ fn bvh_ray(ray: Ray) -> BvhRay {
         kx = ky;
         ky = k;
     }
-    let sx = d[kx] / d[kz];
-    let sy = d[ky] / d[kz];
-    let sz = 1.0 / d[kz];
+    // (d[kx], d[ky], d[kz]) times 2^-e for |d[kz]| in [2^e, 2^(e+1)) (exponent bits: 254 − biased
+    // exponent), an exact scaling that gives edge functions the paper's magnitude whatever |d| is.
+    let s = vec3f(d[kx], d[ky], d[kz]) * bitcast<f32>(0x7f000000u - (bitcast<u32>(d[kz]) & 0x7f800000u));
+    // Rows of the map: every product is by 0 or 1, so they are exact however they are contracted.
     let ez = bvh_axis(kz);
+    let row_x = s.z * bvh_axis(kx) - s.x * ez;
+    let row_y = s.z * bvh_axis(ky) - s.y * ez;
+    let m = transpose(mat3x3f(row_x, row_y, (1.0 / d[kz]) * ez));
     let tiny = select(vec3f(BVH_MIN_DIR_COMPONENT), vec3f(-BVH_MIN_DIR_COMPONENT), d < vec3f(0.0));
     let safe = select(d, tiny, a < vec3f(BVH_MIN_DIR_COMPONENT));
-    return BvhRay(ray.origin, 1.0 / safe, bvh_axis(kx) - sx * ez, bvh_axis(ky) - sy * ez, sz * ez);
+    return BvhRay(ray.origin, 1.0 / safe, m[0], m[1], m[2]);
+}
+
+// A vertex in the ray's frame: x = s.z·p[kx] − s.x·p[kz], y = s.z·p[ky] − s.y·p[kz], z = p[kz] / d[kz]
+// with s the scaled direction (the products by the map's zeros are exact and change nothing). One
+// function of the vertex and the ray alone, so a vertex shared by several triangles gets the same
+// coordinates, bit for bit, in each of their tests (whatever a compiler makes of it, it makes the
+// same of every call). Explicit fma rather than dot(), whose order and contraction are the
+// compiler's: a GPU whose fma is fused (and one that splits it) then computes what the CPU twin
+// computes, which the GPU tests check bit for bit.
+fn bvh_project(v: vec3f, r: BvhRay) -> vec3f {
+    let p = v - r.origin;
+    return fma(vec3f(p.x), r.m0, fma(vec3f(p.y), r.m1, p.z * r.m2));
+}
+
+// Edge functions of the edges p → q, lane by lane: q.x·p.y − q.y·p.x. Watertightness needs the edge
+// shared by two triangles, run p → q by one and q → p by the other, to give exactly opposite values,
+// or a ray through it can be rejected by both. q.x·p.y − q.y·p.x and p.x·q.y − p.y·q.x are not exact
+// negations once a product is fused (fma(q.x, p.y, −q.y·p.x) rounds q.y·p.x, the other p.x·q.y), and
+// WGSL leaves contraction to the compiler (NVIDIA's contracts). Nor is an algebraically antisymmetric
+// form safe: (a·b − c·d) − (c·d − a·b), with or without explicit fma, comes out of lavapipe as
+// ((a·b − c·d) + a·b) − c·d, fma split and the subtraction reassociated (measured: `LavapipePaired`
+// in gpu/bvh/tests.rs reproduces its output bit for bit), which is not antisymmetric.
+// So both triangles evaluate one expression on the same operands in the same order: the endpoints
+// sorted (by x, then y, of bvh_project's coordinates, which are the same bits in both), the product
+// difference taken hi.x·lo.y − hi.y·lo.x, and negated by the triangle that runs the edge from hi to
+// lo. Whatever a compiler does to that expression (contract either product, split the fma,
+// reassociate) it does alike to both evaluations, as long as it compiles one expression into one
+// computation: here a single vector expression for all three edges of every triangle. An edge seen
+// end-on (p == q: a triangle collapsed by rounding, or an instance scaled to nothing) is 0 outright,
+// as the exact value is: with one product fused, x·y − y·x is the product's rounding error, three
+// equal such edges look like a hit, and two opposite ones no longer cancel in det.
+fn bvh_edges(px: vec3f, py: vec3f, qx: vec3f, qy: vec3f) -> vec3f {
+    let same_x = px == qx;
+    let swap = (px > qx) | (same_x & (py > qy));
+    let lo_x = select(px, qx, swap);
+    let lo_y = select(py, qy, swap);
+    let hi_x = select(qx, px, swap);
+    let hi_y = select(qy, py, swap);
+    let e = fma(hi_x, lo_y, -(hi_y * lo_x));
+    return select(select(e, -e, swap), vec3f(0.0), same_x & (py == qy));
 }
 
 struct BvhInstanceEntry {
@@ -130,11 +182,20 @@ struct BvhInstanceEntry {
 // Entering instance `i`: the ray in its space, ready for traversal, and where traversal goes on.
 fn bvh_enter_instance(ray: Ray, i: u32) -> BvhInstanceEntry {
     let instance = bvh_instances[i];
-    let o = vec4f(ray.origin, 1.0);
-    let d = vec4f(ray.dir, 0.0);
-    let origin = vec3f(dot(instance.row0, o), dot(instance.row1, o), dot(instance.row2, o));
-    let dir = vec3f(dot(instance.row0, d), dot(instance.row1, d), dot(instance.row2, d));
+    let origin = bvh_affine(instance, ray.origin, 1.0);
+    let dir = bvh_affine(instance, ray.dir, 0.0);
     return BvhInstanceEntry(bvh_ray(Ray(origin, dir)), bvh_node_ref(bvh_nodes[instance.root]));
+}
+
+// world_to_object applied to (p, w), as explicit fma in the CPU twin's order (BvhInstance::map_ray)
+// rather than dot(), whose order and contraction are the compiler's: the instance-space ray then
+// comes out identical on both, and so does every decision made with it.
+fn bvh_affine(instance: BvhInstance, p: vec3f, w: f32) -> vec3f {
+    let x = vec3f(instance.row0.x, instance.row1.x, instance.row2.x);
+    let y = vec3f(instance.row0.y, instance.row1.y, instance.row2.y);
+    let z = vec3f(instance.row0.z, instance.row1.z, instance.row2.z);
+    let t = vec3f(instance.row0.w, instance.row1.w, instance.row2.w);
+    return fma(vec3f(p.x), x, fma(vec3f(p.y), y, fma(vec3f(p.z), z, w * t)));
 }
 
 fn bvh_min3(v: vec3f) -> f32 {
@@ -157,30 +218,24 @@ fn bvh_box_entry(bmin: vec3f, bmax: vec3f, r: BvhRay, tmin: f32, tmax: f32) -> f
 // double-precision fallback does not exist in WGSL): no gaps, at worst a double hit.
 fn bvh_triangle(r: BvhRay, i: u32, tmin: f32, tmax: f32) -> vec4f {
     let miss = vec4f(0.0);
-    let pa = bvh_tris[3u * i].xyz - r.origin;
-    let pb = bvh_tris[3u * i + 1u].xyz - r.origin;
-    let pc = bvh_tris[3u * i + 2u].xyz - r.origin;
-    let ax = dot(pa, r.row_x);
-    let ay = dot(pa, r.row_y);
-    let bx = dot(pb, r.row_x);
-    let by = dot(pb, r.row_y);
-    let cx = dot(pc, r.row_x);
-    let cy = dot(pc, r.row_y);
-    let eu = cx * by - cy * bx;
-    let ev = ax * cy - ay * cx;
-    let ew = bx * ay - by * ax;
-    if (eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0) {
+    let a = bvh_project(bvh_tris[3u * i].xyz, r);
+    let b = bvh_project(bvh_tris[3u * i + 1u].xyz, r);
+    let c = bvh_project(bvh_tris[3u * i + 2u].xyz, r);
+    // Lanes: edges b → c, c → a, a → b, i.e. the weights of a, b, c (the paper's U, V, W).
+    let e = bvh_edges(vec3f(b.x, c.x, a.x), vec3f(b.y, c.y, a.y), vec3f(c.x, a.x, b.x), vec3f(c.y, a.y, b.y));
+    if any(e < vec3f(0.0)) && any(e > vec3f(0.0)) {
         return miss;
     }
-    let det = eu + ev + ew;
+    let det = e.x + e.y + e.z;
     if det == 0.0 {
         return miss;
     }
-    let t = (eu * dot(pa, r.row_z) + ev * dot(pb, r.row_z) + ew * dot(pc, r.row_z)) / det;
+    // In det's order of summation, so that a triangle at one depth gets that depth exactly.
+    let t = fma(e.z, c.z, fma(e.y, b.z, e.x * a.z)) / det;
     if !(t > tmin && t < tmax) {
         return miss;
     }
-    return vec4f(t, ev / det, ew / det, 1.0);
+    return vec4f(t, e.y / det, e.z / det, 1.0);
 }
 
 // Whether a candidate hit on triangle `i` (BVH order) counts, asking the includer for alpha-tested
