@@ -92,9 +92,11 @@ macro_rules! igi_params {
     };
 }
 
+const DIRECT_DOC: &str = "direct light from the `direct` technique with VPLs for indirect light only (raster, the default: at every VPL count of the quick bench, docs/measurements/bench-quick, it had the lower FLIP on all three scenes — few VPLs on a light are a noisy estimate of its direct light, and order-2 SH band-limit them), or from the VPLs on the light sources too (vpl: all light from VPLs, as in the papers)";
+
 const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
-    "vpl",
-    "direct light from the VPLs on the light sources (vpl), or from the `direct` technique with VPLs for indirect light only (raster)";
+    "raster",
+    DIRECT_DOC;
     ParamSpec {
         name: "filter_normals",
         kind: ParamKind::Bool,
@@ -109,10 +111,7 @@ const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
     },
 );
 
-const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!(
-    "raster",
-    "direct light from the `direct` technique with VPLs for indirect light only (raster, the default: order-2 SH band-limit the sharp lobes of VPLs on point lights, so direct=vpl had a higher FLIP than igi's in the quick bench, docs/measurements/bench-quick), or from the VPLs on the light sources (vpl)";
-);
+const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!("raster", DIRECT_DOC;);
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "igi",
