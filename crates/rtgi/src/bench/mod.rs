@@ -17,7 +17,7 @@ use std::time::Instant;
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
 
-use crate::gpu::{GpuContext, TimingMode};
+use crate::gpu::{AdapterSummary, GpuContext, TimingMode};
 use crate::image::{HdrImage, ToneMap};
 use crate::metrics;
 use crate::reference::{ReferenceRequest, reference};
@@ -42,7 +42,7 @@ pub struct BenchResults {
     /// The shards these results hold (`I/N`), one for a single run.
     pub shards: Vec<String>,
     /// Every adapter that measured a cell.
-    pub adapters: Vec<AdapterInfo>,
+    pub adapters: Vec<AdapterSummary>,
     pub references: Vec<ReferenceResult>,
     pub cells: Vec<CellResult>,
 }
@@ -63,15 +63,6 @@ pub struct SuiteInfo {
 pub struct BuildInfo {
     pub version: String,
     pub commit: String,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct AdapterInfo {
-    pub name: String,
-    pub backend: String,
-    pub device_type: String,
-    pub driver: String,
-    pub driver_info: String,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -424,13 +415,7 @@ pub fn run(
         },
         rtgi: build,
         shards: vec![shard.to_string()],
-        adapters: vec![AdapterInfo {
-            name: a.name.clone(),
-            backend: a.backend.clone(),
-            device_type: a.device_type.clone(),
-            driver: a.driver.clone(),
-            driver_info: a.driver_info.clone(),
-        }],
+        adapters: vec![ctx.summary.clone()],
         references: references.results,
         cells: results,
     })

@@ -1,6 +1,6 @@
 //! Headless device creation.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Errors of the GPU layer.
 #[derive(Debug, thiserror::Error)]
@@ -146,7 +146,7 @@ pub fn adapter_fit(caps: &AdapterCapabilities) -> Result<(), String> {
 }
 
 /// What rtgi reports about the adapter it runs on.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AdapterSummary {
     pub name: String,
     pub backend: String,
