@@ -401,7 +401,6 @@ pub fn run(
         let scene = &scenes[&cell.scene];
         results.push(run_cell(ctx, suite, cell, scene, &mut references, progress)?);
     }
-    let a = &ctx.summary;
     Ok(BenchResults {
         schema: SCHEMA.into(),
         suite: SuiteInfo {
