@@ -15,12 +15,16 @@ frames = 2
 spp = 32
 [[scenes]]
 scene = "cornell"
+[[scenes]]
+scene = "cornell:animate=box"
+times = [0.5, 1.5]
 [[techniques]]
 technique = "path"
 sweep = { spp = [1, 2] }
 [[techniques]]
 technique = "igi"
 sweep = { vpls = [16, 64] }
+scenes = ["cornell"]
 "#;
 
 fn rtgi(dir: &Path, args: &[&str]) -> Output {
@@ -88,9 +92,35 @@ fn a_suite_runs_whole_and_in_merged_shards_with_the_same_figures() {
     ok(&rtgi(d, &["bench", "suite.toml", "--out", "whole"]));
     let whole = results(&d.join("whole"));
     assert_eq!(whole["schema"], "rtgi-bench/1");
-    assert_eq!(whole["suite"]["cells"], 4);
-    let cells = whole["cells"].as_array().expect("cells");
-    assert_eq!(cells.len(), 4);
+    assert_eq!(whole["suite"]["cells"], 6);
+    let all = whole["cells"].as_array().expect("cells");
+    assert_eq!(all.len(), 6);
+    // The animated scene: each measured frame at its time, against the reference of that pose.
+    for c in &all[4..] {
+        assert_eq!(c["scene"], "cornell:animate=box");
+        let times: Vec<f64> = c["frames"]
+            .as_array()
+            .expect("frames")
+            .iter()
+            .map(|f| f["time"].as_f64().expect("time"))
+            .collect();
+        assert_eq!(times, vec![0.5, 1.5], "{c}");
+    }
+    let references: Vec<(String, f64)> = whole["references"]
+        .as_array()
+        .expect("references")
+        .iter()
+        .map(|r| (r["scene"].as_str().expect("scene").to_string(), r["time"].as_f64().expect("time")))
+        .collect();
+    assert_eq!(
+        references,
+        vec![
+            ("cornell".into(), 0.0),
+            ("cornell:animate=box".into(), 0.5),
+            ("cornell:animate=box".into(), 1.5)
+        ]
+    );
+    let cells = &all[..4];
     for c in cells {
         assert!(c["failure"].is_null(), "{c}");
         assert!(c["frame_ms"].as_f64().expect("frame_ms") > 0.0, "{c}");
@@ -106,7 +136,7 @@ fn a_suite_runs_whole_and_in_merged_shards_with_the_same_figures() {
     for shard in ["0/2", "1/2"] {
         let out = format!("shard{}", &shard[..1]);
         ok(&rtgi(d, &["bench", "suite.toml", "--out", &out, "--shard", shard]));
-        assert_eq!(results(&d.join(&out))["cells"].as_array().expect("cells").len(), 2);
+        assert_eq!(results(&d.join(&out))["cells"].as_array().expect("cells").len(), 3);
     }
     ok(&rtgi(d, &["bench", "merge", "shard0", "shard1/results.json", "--out", "merged"]));
     let merged = results(&d.join("merged"));
@@ -123,7 +153,7 @@ fn a_suite_runs_whole_and_in_merged_shards_with_the_same_figures() {
     let svgs = rendered_svgs(&html);
     let pareto: Vec<_> = svgs.iter().filter(|(s, _)| s.contains("class=\"pareto\"")).collect();
     let passes: Vec<_> = svgs.iter().filter(|(s, _)| s.contains("class=\"passes\"")).collect();
-    assert_eq!((pareto.len(), passes.len()), (1, 1), "one plot of each kind for the one scene");
+    assert_eq!((pareto.len(), passes.len()), (2, 2), "one plot of each kind per scene");
     let (svg, pixmap) = pareto[0];
     assert_eq!(svg.matches("class=\"cell\"").count(), 4, "a point per cell");
     // The two series' colours (path first, igi second) are drawn: their curves and points render.
