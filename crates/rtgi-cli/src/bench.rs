@@ -24,6 +24,10 @@ pub struct BenchArgs {
     /// Run only cells whose index is I modulo N (a job-array slice); join with `rtgi bench merge`.
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
+    /// Also write each cell's first compared frame as DIR/images/cell-NNNN.exr (linear), named in
+    /// results.json as `image_file`, for comparisons of your own.
+    #[arg(long)]
+    images: bool,
     /// Use the GPU adapter whose name contains NAME.
     #[arg(long, value_name = "NAME")]
     adapter: Option<String>,
@@ -153,7 +157,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             }
         }
     };
-    let results = bench::run(&gpu, &suite, shard, build, &mut progress)?;
+    let images = args.images.then(|| out.join("images"));
+    if let Some(dir) = &images {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create the directory", dir.display()))?;
+    }
+    let results = bench::run(&gpu, &suite, shard, build, images.as_deref(), &mut progress)?;
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }

@@ -89,7 +89,7 @@ fn a_suite_runs_whole_and_in_merged_shards_with_the_same_figures() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
     std::fs::write(d.join("suite.toml"), SUITE).expect("suite");
-    ok(&rtgi(d, &["bench", "suite.toml", "--out", "whole"]));
+    ok(&rtgi(d, &["bench", "suite.toml", "--out", "whole", "--images"]));
     let whole = results(&d.join("whole"));
     assert_eq!(whole["schema"], "rtgi-bench/1");
     assert_eq!(whole["suite"]["cells"], 6);
@@ -121,6 +121,12 @@ fn a_suite_runs_whole_and_in_merged_shards_with_the_same_figures() {
         ]
     );
     let cells = &all[..4];
+    // --images: each cell's first compared frame, readable and of the cell's size.
+    for c in all {
+        let name = c["image_file"].as_str().expect("image_file");
+        let image = rtgi::image::HdrImage::read(d.join("whole/images").join(name)).expect("cell image");
+        assert_eq!((image.width, image.height), (32, 32), "{name}");
+    }
     for c in cells {
         assert!(c["failure"].is_null(), "{c}");
         assert!(c["frame_ms"].as_f64().expect("frame_ms") > 0.0, "{c}");

@@ -12,6 +12,7 @@ pub mod suite;
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Cursor;
+use std::path::Path;
 use std::time::Instant;
 
 use base64::Engine as _;
@@ -147,6 +148,10 @@ pub struct CellResult {
     pub error_map_png: Option<String>,
     /// Why the cell has no figures, when it failed.
     pub failure: Option<String>,
+    /// With [`run`]'s `images` folder: the file name there of the first compared frame (linear EXR), for
+    /// comparisons the bench does not make itself.
+    #[serde(default)]
+    pub image_file: Option<String>,
 }
 
 /// What [`run`] reports as it goes.
@@ -248,11 +253,13 @@ impl References {
 }
 
 /// Measures one cell; errors of the technique on this scene become the cell's `failure`.
+#[allow(clippy::too_many_arguments)]
 fn run_cell(
     ctx: &GpuContext,
     suite: &Suite,
     cell: &CellSpec,
     scene: &Scene,
+    images: Option<&Path>,
     references: &mut References,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CellResult, RenderError> {
@@ -291,6 +298,7 @@ fn run_cell(
         thumbnail_png: None,
         error_map_png: None,
         failure: None,
+        image_file: None,
     };
     let mut measure = || -> Result<(), RenderError> {
         let mut renderer = Renderer::new(ctx, scene.clone(), &settings)?;
@@ -320,6 +328,13 @@ fn run_cell(
                 rmse: metrics::rmse(reference, &image).map_err(metric_error)?,
             };
             if result.thumbnail_png.is_none() {
+                if let Some(dir) = images {
+                    let name = format!("cell-{:04}.exr", cell.index);
+                    image
+                        .write_exr(dir.join(&name))
+                        .map_err(|e| RenderError::InvalidSettings(e.to_string()))?;
+                    result.image_file = Some(name);
+                }
                 result.thumbnail_png = Some(tone_mapped_thumbnail(&image)?);
                 result.error_map_png = Some(png_base64(
                     &metrics::error_map_rgb8(&map, image.width, image.height),
@@ -366,12 +381,14 @@ fn run_cell(
 
 /// Runs the cells of `shard` on `ctx`. A cell that fails (the technique cannot run on that scene, a
 /// non-finite pixel, ...) is kept with its `failure`; a reference or scene that cannot be had stops
-/// the run.
+/// the run. With `images`, each cell's first compared frame is also written there as
+/// `cell-NNNN.exr` (the folder must exist).
 pub fn run(
     ctx: &GpuContext,
     suite: &Suite,
     shard: Shard,
     build: BuildInfo,
+    images: Option<&Path>,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<BenchResults, RenderError> {
     let cells: Vec<&CellSpec> = suite.cells.iter().filter(|c| shard.contains(c.index)).collect();
@@ -399,7 +416,7 @@ pub fn run(
         let s = &suite.scenes[cell.scene];
         progress(Progress::Cell { done, total: cells.len(), cell, scene: &s.text });
         let scene = &scenes[&cell.scene];
-        results.push(run_cell(ctx, suite, cell, scene, &mut references, progress)?);
+        results.push(run_cell(ctx, suite, cell, scene, images, &mut references, progress)?);
     }
     Ok(BenchResults {
         schema: SCHEMA.into(),
