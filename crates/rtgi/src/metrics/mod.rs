@@ -27,15 +27,9 @@ pub enum MetricsError {
     Empty,
     #[error("region {w}x{h} at ({x}, {y}) is empty or leaves the {width}x{height} image")]
     Region { x: u32, y: u32, w: u32, h: u32, width: u32, height: u32 },
-    /// `image` names the image ("reference", "test" or a file).
-    #[error(
-        "{image} holds {count} non-finite pixel(s) (NaN or ±inf) of {total}, the first at ({x}, {y}); \
-         the metrics are undefined on them"
-    )]
-    NonFinite { image: String, count: usize, total: usize, x: u32, y: u32 },
-    /// Several images checked together ([`check_all_finite`]): one clause per image holding any.
+    /// One clause per image holding NaN or ±∞ ([`check_all_finite`]), naming it.
     #[error("{}; the metrics are undefined on them", .0.join("; "))]
-    NonFiniteImages(Vec<String>),
+    NonFinite(Vec<String>),
 }
 
 /// Pixels of `image` with a NaN or infinite channel: their count and the first (x, y), rows from the top.
@@ -56,13 +50,7 @@ pub fn non_finite_pixels(image: &HdrImage) -> (usize, Option<(u32, u32)>) {
 
 /// Fails with [`MetricsError::NonFinite`], naming the image `name`, if any pixel is NaN or infinite.
 pub fn check_finite(image: &HdrImage, name: &str) -> Result<(), MetricsError> {
-    match non_finite_pixels(image) {
-        (0, _) => Ok(()),
-        (count, first) => {
-            let (x, y) = first.unwrap_or_default();
-            Err(MetricsError::NonFinite { image: name.into(), count, total: image.rgb.len() / 3, x, y })
-        }
-    }
+    check_all_finite(&[(image, name)])
 }
 
 /// Like [`check_finite`] for several (image, name) pairs at once, so an error counts the non-finite
@@ -81,7 +69,7 @@ pub fn check_all_finite(images: &[(&HdrImage, &str)]) -> Result<(), MetricsError
             }
         })
         .collect();
-    if clauses.is_empty() { Ok(()) } else { Err(MetricsError::NonFiniteImages(clauses)) }
+    if clauses.is_empty() { Ok(()) } else { Err(MetricsError::NonFinite(clauses)) }
 }
 
 /// The three error figures of a comparison.
