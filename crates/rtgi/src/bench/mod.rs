@@ -18,7 +18,7 @@ use std::time::Instant;
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
 
-use crate::gpu::{AdapterSummary, GpuContext, TimingMode};
+use crate::gpu::{AdapterSummary, GpuContext, TimeSummary, TimingMode};
 use crate::image::{HdrImage, ToneMap};
 use crate::metrics;
 use crate::reference::{ReferenceRequest, reference};
@@ -82,13 +82,6 @@ pub struct ReferenceResult {
     pub thumbnail_png: String,
 }
 
-/// Mean and 95th percentile over the measured frames, milliseconds.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-pub struct Summary {
-    pub mean_ms: f64,
-    pub p95_ms: f64,
-}
-
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PassResult {
     pub name: String,
@@ -128,8 +121,9 @@ pub struct CellResult {
     pub frame_ms: Option<f64>,
     /// "gpu" or "wall": where `frame_ms` comes from.
     pub time_source: String,
-    pub gpu_ms: Option<Summary>,
-    pub wall_ms: Option<Summary>,
+    /// Mean and 95th percentile over the measured frames.
+    pub gpu_ms: Option<TimeSummary>,
+    pub wall_ms: Option<TimeSummary>,
     pub passes: Vec<PassResult>,
     /// Renderer creation: scene upload, BVH build, pipelines.
     pub setup_ms: f64,
@@ -152,6 +146,13 @@ pub struct CellResult {
     /// comparisons the bench does not make itself.
     #[serde(default)]
     pub image_file: Option<String>,
+}
+
+impl CellResult {
+    /// The summary `frame_ms` and the plots come from (`time_source`).
+    pub fn frame_time(&self) -> Option<TimeSummary> {
+        if self.time_source == "gpu" { self.gpu_ms } else { self.wall_ms }
+    }
 }
 
 /// What [`run`] reports as it goes.
@@ -182,14 +183,9 @@ fn metric_error(e: metrics::MetricsError) -> RenderError {
     RenderError::InvalidSettings(e.to_string())
 }
 
-fn summary(s: Option<crate::gpu::TimeSummary>) -> Option<Summary> {
-    s.map(|s| Summary { mean_ms: s.mean_ms, p95_ms: s.p95_ms })
-}
-
 /// The cell's figures from the renderer's statistics over `frames` frames.
-fn timings(stats: &RenderStats, frames: u32) -> (Option<Summary>, Option<Summary>, Vec<PassResult>) {
-    let gpu = summary(stats.frame_gpu);
-    let wall = summary(stats.frame_wall);
+fn timings(stats: &RenderStats, frames: u32) -> (Option<TimeSummary>, Option<TimeSummary>, Vec<PassResult>) {
+    let (gpu, wall) = (stats.frame_gpu, stats.frame_wall);
     let passes = stats
         .passes
         .iter()
@@ -307,12 +303,10 @@ fn run_cell(
         };
         for frame in 0..=suite.frames {
             let t = time_of(frame);
-            if s.times.is_empty() {
-                renderer.cut();
-            } else {
+            if !s.times.is_empty() {
                 renderer.set_time(t)?;
-                renderer.cut();
             }
+            renderer.cut();
             renderer.step()?;
             if frame == 0 || frame > suite.error_frames {
                 continue;

@@ -102,6 +102,11 @@ impl Group<'_> {
     }
 }
 
+/// Whether `cell` is on the front computed by [`Group::front`].
+fn on_front(front: &[(&CellResult, (f64, f64), bool)], cell: &CellResult) -> bool {
+    front.iter().any(|f| std::ptr::eq(f.0, cell) && f.2)
+}
+
 fn sweep_text(c: &CellResult) -> String {
     c.sweep.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
 }
@@ -461,7 +466,7 @@ img {{ image-rendering: pixelated; vertical-align: middle; }}
         out.push_str("\n<table><tr><th class=\"l\">technique</th><th class=\"l\">sweep</th><th>ms/frame</th><th>p95</th><th>source</th><th>FLIP</th><th>path at equal time</th><th>relMSE</th><th>RMSE</th><th>GPU MiB</th><th>setup ms</th><th>image</th><th>FLIP map</th></tr>\n");
         let front = group.front();
         for c in &group.cells {
-            let on = front.iter().any(|f| std::ptr::eq(f.0, *c) && f.2);
+            let on = on_front(&front, c);
             let img = |p: &Option<String>| {
                 p.as_ref().map_or(String::new(), |b| format!(r#"<img src="data:image/png;base64,{b}">"#))
             };
@@ -475,10 +480,7 @@ img {{ image-rendering: pixelated; vertical-align: middle; }}
                 );
                 continue;
             }
-            let time = |s: Option<super::Summary>, f: fn(&super::Summary) -> f64| {
-                s.map_or("–".into(), |s| number(f(&s)))
-            };
-            let summary = if c.time_source == "gpu" { c.gpu_ms } else { c.wall_ms };
+            let summary = c.frame_time();
             let e = c.error;
             let _ = writeln!(
                 out,
@@ -486,8 +488,8 @@ img {{ image-rendering: pixelated; vertical-align: middle; }}
                 if on { r#" class="front""# } else { "" },
                 escape(&c.series),
                 escape(&sweep_text(c)),
-                time(summary, |s| s.mean_ms),
-                time(summary, |s| s.p95_ms),
+                summary.map_or("–".into(), |s| number(s.mean_ms)),
+                summary.map_or("–".into(), |s| number(s.p95_ms)),
                 c.time_source,
                 e.map_or("–".into(), |e| format!("{:.4}", e.flip)),
                 equal_time(&group, c),
@@ -558,8 +560,8 @@ pub fn markdown(results: &BenchResults, html_name: &str) -> String {
                 );
                 continue;
             }
-            let on = front.iter().any(|f| std::ptr::eq(f.0, *c) && f.2);
-            let summary = if c.time_source == "gpu" { c.gpu_ms } else { c.wall_ms };
+            let on = on_front(&front, c);
+            let summary = c.frame_time();
             let _ = writeln!(
                 out,
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",

@@ -19,7 +19,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{GpuContext, GpuError};
 
@@ -46,11 +46,12 @@ impl std::str::FromStr for TimingMode {
 }
 
 /// Mean and 95th percentile of a series of times, in milliseconds.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TimeSummary {
     pub mean_ms: f64,
     pub p95_ms: f64,
-    /// How many values the summary covers.
+    /// How many values the summary covers (0 when read from results written without it).
+    #[serde(default)]
     pub count: usize,
 }
 
