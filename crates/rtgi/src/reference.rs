@@ -319,6 +319,8 @@ mod tests {
             "testing.rs",
             "testing/animated_gltf.rs",
             "metrics/mod.rs",
+            "bench/mod.rs",
+            "bench/report.rs",
             "scene/builtin/cornell.rs",
         ];
         for name in not_covered {

@@ -58,6 +58,7 @@ impl StableHasher {
 /// - other techniques' folders (`techniques/<name>/` except `path/`): a reference never runs them;
 /// - test code (`tests.rs`, `*_tests.rs`, `test_*.rs`, the `testing` harness), as in `tests/layers.rs`;
 /// - `metrics/`: it compares images, it does not make them;
+/// - `bench/`: it asks for references and measures against them, a layer above the renderer;
 /// - the scene generators and glTF reader/writer (`scene/builtin/`, `scene/gltf_load*`,
 ///   `scene/gltf_export*`): what they produce is a `Scene`, whose content the key hashes itself.
 ///
@@ -76,7 +77,11 @@ pub fn is_reference_source(path: &str) -> bool {
     if stem == "tests" || stem.ends_with("_tests") || stem.starts_with("test_") {
         return false;
     }
-    if path == "testing.rs" || path.starts_with("testing/") || path.starts_with("metrics/") {
+    if path == "testing.rs"
+        || path.starts_with("testing/")
+        || path.starts_with("metrics/")
+        || path.starts_with("bench/")
+    {
         return false;
     }
     if path.starts_with("scene/builtin/")
