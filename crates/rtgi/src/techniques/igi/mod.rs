@@ -37,7 +37,7 @@ pub const MAX_DEPTH: u32 = 8;
 const CHUNK: u32 = 256;
 
 macro_rules! igi_params {
-    ($direct_default:expr, $direct_doc:expr; $($extra:expr),* $(,)?) => {
+    ($($extra:expr),* $(,)?) => {
         with_direct_params![
             ParamSpec {
                 name: "vpls",
@@ -60,8 +60,8 @@ macro_rules! igi_params {
             ParamSpec {
                 name: "direct",
                 kind: ParamKind::Choice(&["vpl", "raster"]),
-                default: $direct_default,
-                doc: $direct_doc,
+                default: "raster",
+                doc: "direct light from the `direct` technique with VPLs for indirect light only (raster, the default: at every VPL count of the quick bench, docs/measurements/bench-quick, it had the lower FLIP on all three scenes — few VPLs on a light are a noisy estimate of its direct light, and order-2 SH band-limit them), or from the VPLs on the light sources too (vpl: all light from VPLs, as in the papers)",
             },
             ParamSpec {
                 name: "g_max",
@@ -92,11 +92,7 @@ macro_rules! igi_params {
     };
 }
 
-const DIRECT_DOC: &str = "direct light from the `direct` technique with VPLs for indirect light only (raster, the default: at every VPL count of the quick bench, docs/measurements/bench-quick, it had the lower FLIP on all three scenes — few VPLs on a light are a noisy estimate of its direct light, and order-2 SH band-limit them), or from the VPLs on the light sources too (vpl: all light from VPLs, as in the papers)";
-
 const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
-    "raster",
-    DIRECT_DOC;
     ParamSpec {
         name: "filter_normals",
         kind: ParamKind::Bool,
@@ -111,7 +107,7 @@ const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
     },
 );
 
-const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!("raster", DIRECT_DOC;);
+const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!();
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "igi",
