@@ -24,6 +24,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/frame_uniforms.wgsl", include_str!("common/frame_uniforms.wgsl")),
     ("common/frame.wgsl", include_str!("common/frame.wgsl")),
     ("common/light_sampling.wgsl", include_str!("common/light_sampling.wgsl")),
+    ("common/direct_light.wgsl", include_str!("common/direct_light.wgsl")),
     ("common/sh.wgsl", include_str!("common/sh.wgsl")),
     ("common/raster.wgsl", include_str!("common/raster.wgsl")),
     ("common/indirect.wgsl", include_str!("common/indirect.wgsl")),
@@ -66,6 +67,16 @@ impl Defines {
 
     pub fn f32(mut self, name: &str, value: f32) -> Self {
         self.lines.push(format!("const {name}: f32 = {value:?};"));
+        self
+    }
+
+    pub fn vec3u(mut self, name: &str, v: [u32; 3]) -> Self {
+        self.lines.push(format!("const {name}: vec3u = vec3u({}u, {}u, {}u);", v[0], v[1], v[2]));
+        self
+    }
+
+    pub fn vec3f(mut self, name: &str, v: [f32; 3]) -> Self {
+        self.lines.push(format!("const {name}: vec3f = vec3f({:?}, {:?}, {:?});", v[0], v[1], v[2]));
         self
     }
 

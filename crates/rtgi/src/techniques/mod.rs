@@ -6,8 +6,11 @@
 //! [`registry`].
 
 pub mod compute;
+pub mod ddgi;
 pub mod direct;
 pub mod discontinuity;
+#[cfg(test)]
+pub(crate) mod fixture;
 pub mod igi;
 pub mod path;
 pub mod rsm;
@@ -192,6 +195,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         rsm::RSM_INFO,
         rsm::RSM_INTERLEAVED_INFO,
         rsm::SII_INFO,
+        ddgi::INFO,
     ]
 }
 

@@ -12,7 +12,7 @@ pub mod shapes;
 mod spheres_env;
 #[cfg(test)]
 mod tests;
-mod two_rooms;
+pub(crate) mod two_rooms;
 
 use crate::error::SceneError;
 use crate::params::{ParamSpec, ParamValues};

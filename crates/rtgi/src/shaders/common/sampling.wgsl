@@ -53,3 +53,13 @@ fn mis_power(pdf_a: f32, pdf_b: f32) -> f32 {
     let b = pdf_b * pdf_b;
     return select(0.0, a / (a + b), a > 0.0);
 }
+
+// Point i of n on the spherical Fibonacci spiral (Keinert et al. 2015): n nearly evenly spread unit
+// vectors, each standing for 4π/n of the sphere.
+fn spherical_fibonacci(i: u32, n: u32) -> vec3f {
+    // The golden ratio's fractional part, (√5 − 1) / 2.
+    let phi = TWO_PI * fract(f32(i) * 0.618033988749895);
+    let cos_theta = 1.0 - (2.0 * f32(i) + 1.0) / f32(n);
+    let sin_theta = sqrt(saturate(1.0 - cos_theta * cos_theta));
+    return vec3f(cos(phi) * sin_theta, sin(phi) * sin_theta, cos_theta);
+}

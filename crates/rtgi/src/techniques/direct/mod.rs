@@ -74,6 +74,14 @@ pub struct DirectLighting {
     bind_group: wgpu::BindGroup,
 }
 
+/// Ray-traced light samples per pixel and frame of the direct pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightSamples {
+    /// Of emissive triangles.
+    pub area: u32,
+    pub environment: u32,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DirectOutput {
     Accumulate,
@@ -87,6 +95,22 @@ impl DirectLighting {
         target: &wgpu::Texture,
         mode: DirectOutput,
     ) -> Result<Self, RenderError> {
+        let samples = LightSamples {
+            area: setup.params.int("area_samples") as u32,
+            environment: setup.params.int("env_samples") as u32,
+        };
+        Self::with_samples(setup, target, mode, samples)
+    }
+
+    /// As [`DirectLighting::new`] with the numbers of light samples given rather than taken from the
+    /// parameters: a technique whose own passes carry the light of emitters or the environment sets
+    /// them to zero.
+    pub fn with_samples(
+        setup: &TechniqueSetup,
+        target: &wgpu::Texture,
+        mode: DirectOutput,
+        samples: LightSamples,
+    ) -> Result<Self, RenderError> {
         let ctx = setup.ctx;
         let layout = compute::layout(
             ctx,
@@ -97,8 +121,8 @@ impl DirectLighting {
         let bind_group =
             compute::bind_group(ctx, "direct", &layout, &[wgpu::BindingResource::TextureView(&view)]);
         let defines = Defines::new()
-            .u32("AREA_SAMPLES", setup.params.int("area_samples") as u32)
-            .u32("ENV_SAMPLES", setup.params.int("env_samples") as u32)
+            .u32("AREA_SAMPLES", samples.area)
+            .u32("ENV_SAMPLES", samples.environment)
             .bool("ACCUMULATE", mode == DirectOutput::Accumulate);
         let pipeline = compute::pipeline(
             ctx,

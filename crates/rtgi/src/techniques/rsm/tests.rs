@@ -3,6 +3,7 @@
 use super::interleave::{self, AtlasLayout};
 use super::*;
 use crate::shaders::{Defines, layout::assert_layout, validate};
+use crate::techniques::fixture::fixture;
 
 fn atlas_defines(l: &AtlasLayout) -> Defines {
     l.defines(Defines::new().u32("TILE", 8))
@@ -243,31 +244,6 @@ fn sample_pattern_is_the_polar_disc_and_subsets_are_disjoint_nets() {
 }
 
 /// A GPU context, a built-in scene with its G-buffer rendered, for the GPU tests below.
-struct Fixture {
-    ctx: crate::gpu::GpuContext,
-    scene: crate::scene::Scene,
-    gpu_scene: crate::gpu::GpuScene,
-    frame: crate::frame::FrameResources,
-    output: wgpu::Texture,
-}
-
-fn fixture(scene: &str, w: u32, h: u32) -> Fixture {
-    use crate::frame::{FrameResources, ShadowSettings};
-    use crate::gpu::{GpuContext, GpuOptions, GpuScene, Profiler};
-    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
-    let scene = crate::scene::builtin::build(scene, &[]).expect("scene");
-    let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
-    let shadows = ShadowSettings { size: 256, filter_radius: 1, depth_bias: 1e-4, normal_offset: 1.5 };
-    let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, Some(shadows)).expect("frame");
-    let view = frame.view;
-    frame.set_view(&ctx, &view, 0);
-    frame
-        .render_inputs(&ctx, &gpu_scene, &mut Profiler::new(&ctx, crate::gpu::TimingMode::Passes))
-        .expect("gbuffer");
-    let output = compute::storage_texture(&ctx, "output", w, h, OUTPUT_FORMAT);
-    Fixture { ctx, scene, gpu_scene, frame, output }
-}
-
 #[test]
 fn split_then_merge_reproduces_the_gbuffer_exactly() {
     use crate::frame::{ALBEDO_FORMAT, DISTANCE_FORMAT, MATERIAL_FORMAT, NORMAL_FORMAT};
@@ -422,14 +398,7 @@ fn every_vpl_reaches_exactly_one_sub_buffer() {
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
     let (_, params) = crate::techniques::resolve("sii", &settings).expect("params");
-    let setup = TechniqueSetup {
-        ctx: &f.ctx,
-        scene: &f.scene,
-        gpu_scene: &f.gpu_scene,
-        frame: &f.frame,
-        params: &params,
-        output: &f.output,
-    };
+    let setup = f.setup(&params);
     let mut sii = splat::Splat::new(&setup, (n, m)).expect("sii");
     let fc = FrameContext::still(&f.ctx, &f.gpu_scene, &f.frame);
     crate::techniques::Technique::render_frame(

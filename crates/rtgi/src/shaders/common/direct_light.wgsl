@@ -1,0 +1,101 @@
+// Direct light reflected by a surface: analytic lights (through the frame's shadow maps or shadow
+// rays), emissive triangles and the environment (light samples with shadow rays). One routine for
+// camera pixels (the `direct` pass every technique adds indirect light to) and for secondary hits that
+// must be shaded the same way (DDGI's probe rays), so both see the same lights. Emission of the surface
+// itself is the caller's: whether it counts depends on who looks.
+
+#import common/frame.wgsl
+#import common/environment.wgsl
+#import common/random.wgsl
+#import common/sampling.wgsl
+#import common/light_sampling.wgsl
+
+// A surface to light: the G-buffer's decoded form, which ray hits convert to with `hit_gsurface`.
+fn hit_gsurface(hit: SurfaceHit, towards_viewer: vec3f, distance: f32) -> GSurface {
+    var s: GSurface;
+    s.valid = true;
+    s.position = hit.position;
+    s.normal = hit.normal;
+    s.geometric_normal = hit.geometric_normal;
+    s.view = towards_viewer;
+    s.distance = distance;
+    s.material_index = hit.material_index;
+    s.material = hit.material;
+    return s;
+}
+
+// One sample of light from emissive triangles, leaving from `origin` (off the surface).
+fn direct_emissive_sample(s: GSurface, origin: vec3f, u: vec3f) -> vec3f {
+    let ls = sample_area_light(origin, u);
+    let cos_surf = dot(s.normal, ls.direction);
+    if ls.pdf <= 0.0 || cos_surf <= 0.0 || dot(s.geometric_normal, ls.direction) <= 0.0 {
+        return vec3f(0.0);
+    }
+    if trace_any(Ray(origin, ls.direction), 0.0, ls.distance * (1.0 - 1e-3)) {
+        return vec3f(0.0);
+    }
+    return brdf_eval(s.material, s.normal, s.view, ls.direction) * ls.radiance * cos_surf / ls.pdf;
+}
+
+// One sample of the environment (importance-sampled for maps, cosine-weighted otherwise).
+fn direct_environment_sample(s: GSurface, origin: vec3f, u: vec2f) -> vec3f {
+    let es = sample_environment_light(s.normal, u);
+    let cos_theta = dot(s.normal, es.direction);
+    if es.pdf <= 0.0 || cos_theta <= 0.0 || dot(s.geometric_normal, es.direction) <= 0.0 {
+        return vec3f(0.0);
+    }
+    if trace_any(Ray(origin, es.direction), 0.0, FLT_MAX) {
+        return vec3f(0.0);
+    }
+    return brdf_eval(s.material, s.normal, s.view, es.direction) * es.radiance * cos_theta / es.pdf;
+}
+
+// Light from the analytic lights. Shadow maps are fitted to what the camera sees well; surfaces
+// anywhere else (a probe ray's hit behind the camera) use `traced_shadows`.
+fn direct_analytic(s: GSurface, origin: vec3f, traced_shadows: bool) -> vec3f {
+    var radiance = vec3f(0.0);
+    for (var i = 0u; i < scene_info.light_count; i++) {
+        let light = lights[i];
+        let inc = light_incidence(light, s.position);
+        let cos_theta = dot(s.normal, inc.direction);
+        if cos_theta <= 0.0 || dot(s.geometric_normal, inc.direction) <= 0.0 || max3(inc.irradiance) <= 0.0 {
+            continue;
+        }
+        var vis = 0.0;
+        if traced_shadows {
+            vis = select(1.0, 0.0, trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)));
+        } else {
+            vis = shadow_visibility(light, s.position, s.geometric_normal);
+        }
+        radiance += brdf_eval(s.material, s.normal, s.view, inc.direction) * inc.irradiance * cos_theta * vis;
+    }
+    return radiance;
+}
+
+// Direct light reflected towards `s.view`: the analytic lights plus `area_samples` samples of the
+// emissive triangles and `env_samples` of the environment (each averaged), shadow rays from `origin`.
+fn direct_light(
+    s: GSurface,
+    origin: vec3f,
+    rng: ptr<function, Rng>,
+    area_samples: u32,
+    env_samples: u32,
+    traced_shadows: bool,
+) -> vec3f {
+    var radiance = direct_analytic(s, origin, traced_shadows);
+    if scene_info.emissive_count > 0u && area_samples > 0u {
+        var sum = vec3f(0.0);
+        for (var k = 0u; k < area_samples; k++) {
+            sum += direct_emissive_sample(s, origin, vec3f(rng_next(rng), rng_next2(rng)));
+        }
+        radiance += sum / f32(area_samples);
+    }
+    if scene_info.env_kind != ENV_NONE && env_samples > 0u {
+        var sum = vec3f(0.0);
+        for (var k = 0u; k < env_samples; k++) {
+            sum += direct_environment_sample(s, origin, rng_next2(rng));
+        }
+        radiance += sum / f32(env_samples);
+    }
+    return radiance;
+}

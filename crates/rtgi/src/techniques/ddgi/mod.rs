@@ -1,0 +1,744 @@
+//! `ddgi`: dynamic diffuse global illumination with ray-traced irradiance probes (Majercik et al.
+//! 2019, the fourth article of `research/seeds/003`; its errata are in the report's §4 and §6).
+//!
+//! A grid of probes over the scene's bounds. Per frame: `probe trace` casts `rays` rays from every probe
+//! on a randomly rotated spherical Fibonacci pattern and shades their hits like camera pixels (direct
+//! light through shadow rays + the previous frame's probes, so bounces add up over frames); `probe
+//! irradiance update` and `probe distance update` blend them into octahedral atlases with hysteresis;
+//! `direct lighting` is the shared direct pass; `probe sampling` adds the probes' diffuse light to
+//! every pixel through the 8-probe cage with the paper's visibility weights.
+//!
+//! Where the light of emitters and the environment goes is a parameter: with `emitters=direct` (the
+//! default) camera pixels and probe-ray hits sample them with shadow rays and the probes carry only
+//! light that bounced at least once, so area lights keep sharp shadows; with `emitters=probes` (the
+//! paper's way for area lights and skies) the probes carry them too and only analytic lights are direct.
+//!
+//! The probes are world-space history: a camera cut does not clear them (nothing they hold depends on
+//! the view); they are created with the technique and follow moving lights, objects and skies through
+//! the hysteresis blend.
+
+use std::collections::BTreeMap;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, Quat, Vec3};
+use wgpu::util::DeviceExt;
+
+use crate::frame::{GBUFFER_BYTES_PER_PIXEL, OUTPUT_FORMAT};
+use crate::gpu::features::{Need, has};
+use crate::gpu::{GpuContext, Profiler, readback};
+use crate::params::{ParamKind, ParamSpec};
+use crate::scene::Aabb;
+use crate::shaders::Defines;
+use crate::techniques::RenderError;
+
+use super::compute::{self, storage_buffer_entry, storage_texture_entry, texture_entry, uniform_entry};
+use super::direct::{DirectLighting, DirectOutput, LightSamples, with_direct_params};
+use super::{FrameContext, FrameNeeds, Measured, SceneChange, Technique, TechniqueInfo, TechniqueSetup};
+
+#[cfg(test)]
+mod tests;
+
+const VOLUME_WGSL: &str = include_str!("volume.wgsl");
+const QUERY_WGSL: &str = include_str!("query.wgsl");
+
+/// Threads per workgroup of the probe-ray pass (`WORKGROUP` in trace.wgsl).
+const TRACE_WORKGROUP: u32 = 64;
+/// Workgroup edge of the atlas update passes (`@workgroup_size(8, 8)` in update.wgsl).
+const UPDATE_TILE: u32 = 8;
+
+/// Irradiance atlas formats (`format`); the paper compares R11G11B10F and RGB10A2 with 16-bit floats.
+const IRRADIANCE_FORMATS: &[&str] = &["rgba16float", "rgba32float", "rg11b10ufloat", "rgb10a2unorm"];
+
+const DDGI_PARAMS: [ParamSpec; 20] = with_direct_params![
+    ParamSpec {
+        name: "probe_count",
+        kind: ParamKind::Int { min: 2, max: 64 },
+        default: "8",
+        doc: "probes along the scene's longest axis; the other axes get about the same spacing (at least 2 probes), all centred in their cells of the scene's bounds",
+    },
+    ParamSpec {
+        name: "rays",
+        kind: ParamKind::Int { min: 1, max: 1024 },
+        default: "64",
+        doc: "rays per probe and frame (the paper's largest scenes use 64)",
+    },
+    ParamSpec {
+        name: "hysteresis",
+        kind: ParamKind::Float { min: 0.0, max: 0.999 },
+        default: "0.95",
+        doc: "weight α of the previous value when a frame's rays are blended in, E = α·E_prev + (1 − α)·E_new (the paper uses 0.85–0.98)",
+    },
+    ParamSpec {
+        name: "irradiance_texels",
+        kind: ParamKind::Int { min: 2, max: 32 },
+        default: "8",
+        doc: "edge of a probe's octahedral irradiance tile, without its one-texel gutter",
+    },
+    ParamSpec {
+        name: "distance_texels",
+        kind: ParamKind::Int { min: 2, max: 64 },
+        default: "16",
+        doc: "edge of a probe's octahedral distance-moment tile, without its one-texel gutter",
+    },
+    ParamSpec {
+        name: "distance_exponent",
+        kind: ParamKind::Float { min: 1.0, max: 1000.0 },
+        default: "50",
+        doc: "power of the cosine lobe that blends hit distances into a distance texel (sharper = less blurred visibility)",
+    },
+    ParamSpec {
+        name: "format",
+        kind: ParamKind::Choice(IRRADIANCE_FORMATS),
+        default: "rgba16float",
+        doc: "storage format of the irradiance atlas (the distance atlas is rg16float where the adapter can write it, else rgba16float)",
+    },
+    ParamSpec {
+        name: "emitters",
+        kind: ParamKind::Choice(&["direct", "probes"]),
+        default: "direct",
+        doc: "light of emissive surfaces and the environment: sampled with shadow rays at pixels and probe hits, the probes carrying only bounced light (direct), or carried by the probes (probes, as the paper does for area lights)",
+    },
+    ParamSpec {
+        name: "backface_weight",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "weight probes by a wrapped cosine of the direction to them (soft backface test)",
+    },
+    ParamSpec {
+        name: "chebyshev",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "weight probes by the Chebyshev bound of their distance moments (visibility)",
+    },
+    ParamSpec {
+        name: "low_weight_crush",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "crush probe weights below 0.2 (cubic), against faint leaks",
+    },
+    ParamSpec {
+        name: "normal_bias",
+        kind: ParamKind::Float { min: 0.0, max: 1.0 },
+        default: "0.05",
+        doc: "offset of the lookup point along the surface normal, as a fraction of the smallest probe spacing",
+    },
+    ParamSpec {
+        name: "view_bias",
+        kind: ParamKind::Float { min: 0.0, max: 1.0 },
+        default: "0.2",
+        doc: "offset of the lookup point towards the viewer, as a fraction of the smallest probe spacing",
+    },
+];
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "ddgi",
+    description: "dynamic diffuse GI: ray-traced irradiance probes with hysteresis and Chebyshev visibility",
+    params: &DDGI_PARAMS,
+    needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
+    motion: super::Motion::Temporal,
+    validate: super::independent_params,
+    create,
+};
+
+/// Mirrors `ProbeFrame` in volume.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ProbeFrame {
+    /// Columns of the ray pattern's rotation (mat3x3f: each column padded to 16 bytes).
+    pub rotation: [[f32; 4]; 3],
+    pub hysteresis: f32,
+    pub _pad: [f32; 3],
+}
+
+/// Where the probes stand: `counts` probes per axis, the first at `first`, `spacing` apart.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProbeGrid {
+    pub counts: [u32; 3],
+    pub first: Vec3,
+    pub spacing: Vec3,
+}
+
+impl ProbeGrid {
+    /// `along_longest` probes on the longest axis of `bounds`, about the same spacing on the others
+    /// (at least 2 probes each, so every point has a cage), each probe at the centre of its cell: probes
+    /// on the bounds would sit in the outer walls.
+    pub fn fit(bounds: Aabb, along_longest: u32) -> ProbeGrid {
+        let extent = (bounds.max - bounds.min).max(Vec3::splat(1e-3));
+        let cell = extent.max_element() / along_longest as f32;
+        let counts = extent.to_array().map(|e| ((e / cell).round() as u32).clamp(2, along_longest.max(2)));
+        let spacing = extent / Vec3::from(counts.map(|c| c as f32));
+        ProbeGrid { counts, first: bounds.min + spacing * 0.5, spacing }
+    }
+
+    pub fn probes(&self) -> u32 {
+        self.counts.iter().product()
+    }
+
+    pub fn position(&self, g: [u32; 3]) -> Vec3 {
+        self.first + Vec3::from(g.map(|c| c as f32)) * self.spacing
+    }
+
+    /// Farthest a probe's distance moments look: 1.5 cell diagonals (misses are recorded there).
+    pub fn max_distance(&self) -> f32 {
+        1.5 * self.spacing.length()
+    }
+}
+
+/// How probe tiles are packed into an atlas: a near-square grid of tiles `interior + 2` texels wide.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AtlasLayout {
+    pub columns: u32,
+    pub rows: u32,
+    pub interior: u32,
+}
+
+impl AtlasLayout {
+    pub fn new(probes: u32, interior: u32, columns: u32) -> Self {
+        AtlasLayout { columns, rows: probes.div_ceil(columns), interior }
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        let edge = self.interior + 2;
+        (self.columns * edge, self.rows * edge)
+    }
+
+    /// The texel of the atlas that holds interior texel `texel` of `probe`.
+    pub fn texel(&self, probe: u32, texel: [u32; 2]) -> [u32; 2] {
+        let edge = self.interior + 2;
+        [(probe % self.columns) * edge + 1 + texel[0], (probe / self.columns) * edge + 1 + texel[1]]
+    }
+}
+
+/// The CPU twin of `gutter_source` in volume.wgsl: the interior texel a tile texel holds.
+pub fn gutter_source(t: [u32; 2], interior: u32) -> [u32; 2] {
+    let last = interior + 1;
+    let (on_x, on_y) = (t[0] == 0 || t[0] == last, t[1] == 0 || t[1] == last);
+    let flip = |c: u32| interior - c;
+    match (on_x, on_y) {
+        (true, true) => [if t[0] == 0 { interior - 1 } else { 0 }, if t[1] == 0 { interior - 1 } else { 0 }],
+        (false, true) => [flip(t[0]), if t[1] == 0 { 0 } else { interior - 1 }],
+        (true, false) => [if t[0] == 0 { 0 } else { interior - 1 }, flip(t[1])],
+        (false, false) => [t[0] - 1, t[1] - 1],
+    }
+}
+
+/// The CPU twin of `oct_encode` (math.wgsl): a unit vector to [-1, 1]².
+pub fn oct_encode(n: Vec3) -> [f32; 2] {
+    let p = [n.x, n.y].map(|c| c / (n.x.abs() + n.y.abs() + n.z.abs()));
+    if n.z >= 0.0 {
+        return p;
+    }
+    let sign = |c: f32| if c >= 0.0 { 1.0 } else { -1.0 };
+    [(1.0 - p[1].abs()) * sign(p[0]), (1.0 - p[0].abs()) * sign(p[1])]
+}
+
+/// The CPU twin of `oct_decode` (math.wgsl).
+pub fn oct_decode(e: [f32; 2]) -> Vec3 {
+    let mut n = Vec3::new(e[0], e[1], 1.0 - e[0].abs() - e[1].abs());
+    let t = (-n.z).clamp(0.0, 1.0);
+    n.x += if n.x >= 0.0 { -t } else { t };
+    n.y += if n.y >= 0.0 { -t } else { t };
+    n.normalize()
+}
+
+/// The CPU twin of `texel_direction` (volume.wgsl).
+pub fn texel_direction(texel: [u32; 2], interior: u32) -> Vec3 {
+    oct_decode(texel.map(|c| (c as f32 + 0.5) / interior as f32 * 2.0 - 1.0))
+}
+
+/// The interior texel whose cell holds direction `dir` (what a nearest lookup returns).
+pub fn direction_texel(dir: Vec3, interior: u32) -> [u32; 2] {
+    oct_encode(dir).map(|c| (((c * 0.5 + 0.5) * interior as f32) as u32).min(interior - 1))
+}
+
+/// A uniformly random rotation (Shoemake's quaternion from three uniform numbers) for frame `frame`.
+pub fn ray_rotation(seed: u32, frame: u32) -> Mat3 {
+    let mut state = (u64::from(seed) << 32 | u64::from(frame)) ^ 0x6464_6769_0000_0000;
+    let mut next = || {
+        // SplitMix64.
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let (u1, u2, u3) = (next(), next(), next());
+    let tau = std::f32::consts::TAU;
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    let q = Quat::from_xyzw(
+        a * (tau * u2).sin(),
+        a * (tau * u2).cos(),
+        b * (tau * u3).sin(),
+        b * (tau * u3).cos(),
+    );
+    Mat3::from_quat(q.normalize())
+}
+
+fn wgsl_format_name(format: wgpu::TextureFormat) -> &'static str {
+    match format {
+        wgpu::TextureFormat::Rgba16Float => "rgba16float",
+        wgpu::TextureFormat::Rgba32Float => "rgba32float",
+        wgpu::TextureFormat::Rg11b10Ufloat => "rg11b10ufloat",
+        wgpu::TextureFormat::Rgb10a2Unorm => "rgb10a2unorm",
+        wgpu::TextureFormat::Rg16Float => "rg16float",
+        other => unreachable!("no atlas of format {other:?}"),
+    }
+}
+
+fn irradiance_format(name: &str) -> wgpu::TextureFormat {
+    match name {
+        "rgba32float" => wgpu::TextureFormat::Rgba32Float,
+        "rg11b10ufloat" => wgpu::TextureFormat::Rg11b10Ufloat,
+        "rgb10a2unorm" => wgpu::TextureFormat::Rgb10a2Unorm,
+        _ => wgpu::TextureFormat::Rgba16Float,
+    }
+}
+
+/// Bytes per texel of the atlas formats.
+fn texel_bytes(format: wgpu::TextureFormat) -> u64 {
+    u64::from(format.block_copy_size(None).unwrap_or(8))
+}
+
+/// One quantity's atlases: written this frame, read from the last (ping-pong, so any format works
+/// without read-write storage), with the update pass that blends rays into them.
+struct Atlas {
+    layout: AtlasLayout,
+    format: wgpu::TextureFormat,
+    textures: [wgpu::Texture; 2],
+    views: [wgpu::TextureView; 2],
+    update: wgpu::ComputePipeline,
+    /// `groups[w]` writes atlas `w` from atlas `1 − w`.
+    groups: [wgpu::BindGroup; 2],
+}
+
+impl Atlas {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        ctx: &GpuContext,
+        name: &str,
+        layout: AtlasLayout,
+        format: wgpu::TextureFormat,
+        entry: &str,
+        defines: &Defines,
+        rays: &wgpu::Buffer,
+        frame_uniform: &wgpu::Buffer,
+    ) -> Result<Atlas, RenderError> {
+        let (w, h) = layout.size();
+        let make = |i: usize| {
+            ctx.device.create_texture(
+                &crate::gpu::TextureBuilder::d2(&format!("{name} atlas {i}"), w, h, format)
+                    .storage()
+                    .sampled()
+                    .usage(wgpu::TextureUsages::COPY_SRC)
+                    .descriptor(),
+            )
+        };
+        let textures = [make(0), make(1)];
+        let views = [0, 1].map(|i| textures[i].create_view(&Default::default()));
+        let group_layout = compute::layout(
+            ctx,
+            name,
+            &[
+                storage_buffer_entry(0, true),
+                texture_entry(1, wgpu::TextureSampleType::Float { filterable: false }),
+                uniform_entry(2),
+                storage_texture_entry(3, format, wgpu::StorageTextureAccess::WriteOnly),
+            ],
+        );
+        let groups = [0, 1].map(|w| {
+            compute::bind_group(
+                ctx,
+                name,
+                &group_layout,
+                &[
+                    rays.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&views[1 - w]),
+                    frame_uniform.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&views[w]),
+                ],
+            )
+        });
+        let source = format!("{VOLUME_WGSL}\n{}", include_str!("update.wgsl"))
+            .replace("ATLAS_FORMAT", wgsl_format_name(format));
+        let update = compute::pipeline(ctx, name, &source, defines.clone(), entry, &[&group_layout])?;
+        Ok(Atlas { layout, format, textures, views, update, groups })
+    }
+
+    fn bytes(&self) -> u64 {
+        self.textures.iter().map(|t| u64::from(t.width() * t.height()) * texel_bytes(self.format)).sum()
+    }
+
+    fn record_update(&self, encoder: &mut wgpu::CommandEncoder, label: &str, written: usize) {
+        let (w, h) = self.layout.size();
+        compute::dispatch(
+            encoder,
+            label,
+            &self.update,
+            &[&self.groups[written]],
+            [w.div_ceil(UPDATE_TILE), h.div_ceil(UPDATE_TILE), 1],
+        );
+    }
+}
+
+pub(crate) struct Ddgi {
+    grid: ProbeGrid,
+    rays_per_probe: u32,
+    hysteresis: f32,
+    seed: u32,
+    direct: DirectLighting,
+    _direct_texture: wgpu::Texture,
+    frame_uniform: wgpu::Buffer,
+    ray_data: wgpu::Buffer,
+    ray_stats: wgpu::Buffer,
+    trace: wgpu::ComputePipeline,
+    /// `trace_groups[w]` reads the atlases other than `w`.
+    trace_groups: [wgpu::BindGroup; 2],
+    irradiance: Atlas,
+    distance: Atlas,
+    shade: wgpu::ComputePipeline,
+    /// `shade_groups[w]` reads atlases `w`.
+    shade_groups: [wgpu::BindGroup; 2],
+    /// The atlases the next update writes.
+    written: usize,
+    /// Updates since creation (0: the next blend keeps nothing of the zeroed atlases).
+    updates: u32,
+    max_workgroups: u32,
+    width: u32,
+    height: u32,
+    warnings: Vec<String>,
+}
+
+fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
+    Ok(Box::new(Ddgi::new(setup)?))
+}
+
+impl Ddgi {
+    pub(crate) fn new(setup: &TechniqueSetup) -> Result<Self, RenderError> {
+        let ctx = setup.ctx;
+        let p = setup.params;
+        let grid = ProbeGrid::fit(setup.gpu_scene.bounds(), p.int("probe_count") as u32);
+        let probes = grid.probes();
+        let rays_per_probe = p.int("rays") as u32;
+        let emitters_in_probes = p.choice("emitters") == "probes";
+        let mut warnings = Vec::new();
+
+        let format = irradiance_format(p.choice("format"));
+        if !has(ctx, Need::StorageTexture { format, read_write: false }) {
+            return Err(RenderError::InvalidSettings(format!(
+                "ddgi: format={} cannot be written by compute shaders on this adapter; use rgba16float",
+                p.choice("format")
+            )));
+        }
+        if format == wgpu::TextureFormat::Rgba32Float && !has(ctx, Need::Float32Filtering) {
+            return Err(RenderError::InvalidSettings(
+                "ddgi: format=rgba32float needs float32 filtering (wgpu feature FLOAT32_FILTERABLE), which this adapter lacks; use rgba16float".into(),
+            ));
+        }
+        let distance_format = if has(
+            ctx,
+            Need::StorageTexture { format: wgpu::TextureFormat::Rg16Float, read_write: false },
+        ) {
+            wgpu::TextureFormat::Rg16Float
+        } else {
+            warnings.push("the adapter cannot write rg16float storage textures: the distance atlas is rgba16float (twice the memory)".into());
+            wgpu::TextureFormat::Rgba16Float
+        };
+
+        let columns = (probes as f64).sqrt().ceil() as u32;
+        let irradiance_layout = AtlasLayout::new(probes, p.int("irradiance_texels") as u32, columns);
+        let distance_layout = AtlasLayout::new(probes, p.int("distance_texels") as u32, columns);
+        let max_dim = ctx.limits().max_texture_dimension_2d;
+        for (what, l) in [("irradiance", irradiance_layout), ("distance", distance_layout)] {
+            let (w, h) = l.size();
+            if w.max(h) > max_dim {
+                return Err(RenderError::InvalidSettings(format!(
+                    "ddgi: the {what} atlas of {probes} probes would be {w}x{h} texels, over the adapter's \
+                     max_texture_dimension_2d ({max_dim}); lower probe_count or {what}_texels"
+                )));
+            }
+        }
+        let ray_count = u64::from(probes) * u64::from(rays_per_probe);
+        ctx.check_storage_size("the probe ray buffer", ray_count * 16)?;
+
+        let min_spacing = grid.spacing.min_element();
+        let defines = Defines::new()
+            .vec3u("PROBE_COUNTS", grid.counts)
+            .vec3f("FIRST_PROBE", grid.first.to_array())
+            .vec3f("PROBE_SPACING", grid.spacing.to_array())
+            .u32("ATLAS_COLUMNS", columns)
+            .u32("IRRADIANCE_TEXELS", irradiance_layout.interior)
+            .u32("DISTANCE_TEXELS", distance_layout.interior)
+            .u32("RAYS", rays_per_probe)
+            .f32("MAX_DISTANCE", grid.max_distance())
+            .f32("DISTANCE_EXPONENT", p.float("distance_exponent") as f32)
+            .f32("NORMAL_BIAS", p.float("normal_bias") as f32 * min_spacing)
+            .f32("VIEW_BIAS", p.float("view_bias") as f32 * min_spacing)
+            .bool("BACKFACE_WEIGHT", p.bool("backface_weight"))
+            .bool("CHEBYSHEV", p.bool("chebyshev"))
+            .bool("LOW_WEIGHT_CRUSH", p.bool("low_weight_crush"))
+            .bool("EMITTERS_IN_PROBES", emitters_in_probes)
+            .u32("SURFEL_AREA_SAMPLES", u32::from(!emitters_in_probes))
+            .u32("SURFEL_ENV_SAMPLES", u32::from(!emitters_in_probes));
+
+        let device = &ctx.device;
+        let frame_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("probe frame"),
+            contents: bytemuck::bytes_of(&ProbeFrame::zeroed()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let ray_data = device.create_buffer(
+            &crate::gpu::BufferBuilder::new("probe rays", ray_count * 16).storage().copy().descriptor(),
+        );
+        let ray_stats = compute::storage_buffer(ctx, "probe ray stats", 4);
+        let irradiance = Atlas::new(
+            ctx,
+            "probe irradiance update",
+            irradiance_layout,
+            format,
+            "update_irradiance",
+            &defines,
+            &ray_data,
+            &frame_uniform,
+        )?;
+        let distance = Atlas::new(
+            ctx,
+            "probe distance update",
+            distance_layout,
+            distance_format,
+            "update_distance",
+            &defines,
+            &ray_data,
+            &frame_uniform,
+        )?;
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("probe atlases"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let filterable = wgpu::TextureSampleType::Float { filterable: true };
+        let sampler_entry = wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        };
+
+        // Probe rays: read the atlases the update does not write.
+        let trace_layout = compute::layout(
+            ctx,
+            "probe trace",
+            &[
+                storage_buffer_entry(0, false),
+                texture_entry(1, filterable),
+                texture_entry(2, filterable),
+                wgpu::BindGroupLayoutEntry { binding: 3, ..sampler_entry },
+                uniform_entry(4),
+                storage_buffer_entry(5, false),
+            ],
+        );
+        let trace_groups = [0, 1].map(|w| {
+            compute::bind_group(
+                ctx,
+                "probe trace",
+                &trace_layout,
+                &[
+                    ray_data.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&irradiance.views[1 - w]),
+                    wgpu::BindingResource::TextureView(&distance.views[1 - w]),
+                    wgpu::BindingResource::Sampler(&sampler),
+                    frame_uniform.as_entire_binding(),
+                    ray_stats.as_entire_binding(),
+                ],
+            )
+        });
+        let trace = compute::pipeline(
+            ctx,
+            "probe trace",
+            &format!("{VOLUME_WGSL}\n{QUERY_WGSL}\n{}", include_str!("trace.wgsl")),
+            setup.gpu_scene.bvh_defines(defines.clone()),
+            "main",
+            &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &trace_layout],
+        )?;
+
+        // Direct light into a texture of its own, accumulated while nothing changes.
+        let (width, height) = (setup.frame.width, setup.frame.height);
+        let direct_texture = compute::storage_texture(ctx, "ddgi direct", width, height, OUTPUT_FORMAT);
+        let samples = if emitters_in_probes {
+            LightSamples { area: 0, environment: 0 }
+        } else {
+            LightSamples { area: p.int("area_samples") as u32, environment: p.int("env_samples") as u32 }
+        };
+        let direct = DirectLighting::with_samples(setup, &direct_texture, DirectOutput::Accumulate, samples)?;
+
+        let shade_layout = compute::layout(
+            ctx,
+            "probe sampling",
+            &[
+                storage_texture_entry(0, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
+                texture_entry(1, wgpu::TextureSampleType::Float { filterable: false }),
+                texture_entry(2, filterable),
+                texture_entry(3, filterable),
+                wgpu::BindGroupLayoutEntry { binding: 4, ..sampler_entry },
+                uniform_entry(5),
+            ],
+        );
+        let output_view = setup.output.create_view(&Default::default());
+        let direct_view = direct_texture.create_view(&Default::default());
+        let shade_groups = [0, 1].map(|w| {
+            compute::bind_group(
+                ctx,
+                "probe sampling",
+                &shade_layout,
+                &[
+                    wgpu::BindingResource::TextureView(&output_view),
+                    wgpu::BindingResource::TextureView(&direct_view),
+                    wgpu::BindingResource::TextureView(&irradiance.views[w]),
+                    wgpu::BindingResource::TextureView(&distance.views[w]),
+                    wgpu::BindingResource::Sampler(&sampler),
+                    frame_uniform.as_entire_binding(),
+                ],
+            )
+        });
+        let shade = compute::pipeline(
+            ctx,
+            "probe sampling",
+            &format!("{VOLUME_WGSL}\n{QUERY_WGSL}\n{}", include_str!("shade.wgsl")),
+            defines,
+            "main",
+            &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &shade_layout],
+        )?;
+
+        Ok(Ddgi {
+            grid,
+            rays_per_probe,
+            hysteresis: p.float("hysteresis") as f32,
+            seed: p.int("seed") as u32,
+            direct,
+            _direct_texture: direct_texture,
+            frame_uniform,
+            ray_data,
+            ray_stats,
+            trace,
+            trace_groups,
+            irradiance,
+            distance,
+            shade,
+            shade_groups,
+            written: 0,
+            updates: 0,
+            max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
+            width,
+            height,
+            warnings,
+        })
+    }
+
+    /// Writes this frame's ray rotation and blend weight.
+    fn write_frame_uniform(&self, ctx: &GpuContext, frame_counter: u32) {
+        let r = ray_rotation(self.seed, frame_counter);
+        let uniform = ProbeFrame {
+            rotation: [r.x_axis, r.y_axis, r.z_axis].map(|c| [c.x, c.y, c.z, 0.0]),
+            hysteresis: if self.updates == 0 { 0.0 } else { self.hysteresis },
+            _pad: [0.0; 3],
+        };
+        ctx.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
+    }
+
+    /// Blends the rays in `ray_data` into the atlases (the two update passes) and flips the atlases.
+    pub(crate) fn update_probes(
+        &mut self,
+        ctx: &GpuContext,
+        profiler: &mut Profiler,
+    ) -> Result<(), RenderError> {
+        profiler.pass(ctx, "probe irradiance update", |encoder| {
+            self.irradiance.record_update(encoder, "probe irradiance update", self.written);
+        })?;
+        profiler.pass(ctx, "probe distance update", |encoder| {
+            self.distance.record_update(encoder, "probe distance update", self.written);
+        })?;
+        self.written = 1 - self.written;
+        self.updates += 1;
+        Ok(())
+    }
+
+    /// The atlases the last update wrote.
+    pub(crate) fn current(&self) -> usize {
+        1 - self.written
+    }
+
+    fn probe_rays(&self) -> u64 {
+        u64::from(self.grid.probes()) * u64::from(self.rays_per_probe)
+    }
+}
+
+impl Technique for Ddgi {
+    fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        self.write_frame_uniform(fc.ctx, fc.view.frame_counter);
+        let groups = crate::gpu::dispatch::workgroups_for(
+            self.probe_rays() as u32,
+            TRACE_WORKGROUP,
+            self.max_workgroups,
+        );
+        profiler.pass(fc.ctx, "probe trace", |encoder| {
+            compute::dispatch(
+                encoder,
+                "probe trace",
+                &self.trace,
+                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.trace_groups[self.written]],
+                groups,
+            );
+        })?;
+        self.update_probes(fc.ctx, profiler)?;
+        self.direct.render(fc, profiler)?;
+        compute::frame_pass(fc, profiler, "probe sampling", &self.shade, &self.shade_groups[self.current()])
+    }
+
+    fn counters(
+        &mut self,
+        ctx: &GpuContext,
+        measured: &Measured,
+    ) -> Result<BTreeMap<String, f64>, RenderError> {
+        let stats = readback::read_buffer(ctx, &self.ray_stats, 0, 4)?;
+        let backface = f64::from(bytemuck::cast_slice::<u8, u32>(&stats)[0]);
+        let traced = self.probe_rays() as f64 * f64::from(self.updates);
+        let [x, y, z] = self.grid.counts;
+        let mut c = BTreeMap::from([
+            ("probes".to_string(), f64::from(self.grid.probes())),
+            ("probes_x".to_string(), f64::from(x)),
+            ("probes_y".to_string(), f64::from(y)),
+            ("probes_z".to_string(), f64::from(z)),
+            ("probe_spacing_min".to_string(), f64::from(self.grid.spacing.min_element())),
+            ("probe_rays_per_frame".to_string(), self.probe_rays() as f64),
+            ("probe_updates".to_string(), f64::from(self.updates)),
+            ("backface_ray_fraction".to_string(), if traced > 0.0 { backface / traced } else { 0.0 }),
+            ("irradiance_atlas_bytes".to_string(), self.irradiance.bytes() as f64),
+            ("distance_atlas_bytes".to_string(), self.distance.bytes() as f64),
+            ("probe_ray_buffer_bytes".to_string(), self.ray_data.size() as f64),
+            ("gbuffer_bytes_per_pixel".to_string(), f64::from(GBUFFER_BYTES_PER_PIXEL)),
+            ("direct_bytes_per_pixel".to_string(), 16.0),
+            ("output_bytes_per_pixel".to_string(), 16.0),
+            ("pixels".to_string(), f64::from(self.width * self.height)),
+        ]);
+        if let Some(ms) = measured.pass_ms("probe trace").filter(|&ms| ms > 0.0) {
+            c.insert("probe_rays_per_second".into(), traced / (ms / 1e3));
+        }
+        Ok(c)
+    }
+
+    // Lights, the environment and geometry are read from the scene every frame; the probes follow
+    // through the blend.
+    fn scene_changed(
+        &mut self,
+        _: &GpuContext,
+        _: &crate::gpu::GpuScene,
+        _: SceneChange,
+    ) -> Result<bool, RenderError> {
+        Ok(true)
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.clone()
+    }
+}

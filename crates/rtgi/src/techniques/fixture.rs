@@ -1,0 +1,50 @@
+//! A technique's surroundings for unit tests: a device, a built-in scene on it, frame resources whose
+//! G-buffer and shadow maps are rendered, and an output texture.
+
+use crate::frame::{FrameResources, OUTPUT_FORMAT, ShadowSettings};
+use crate::gpu::{GpuContext, GpuOptions, GpuScene, Profiler, TimingMode};
+use crate::params::ParamValues;
+
+use super::{TechniqueSetup, compute};
+
+pub struct Fixture {
+    pub ctx: GpuContext,
+    pub scene: crate::scene::Scene,
+    pub gpu_scene: GpuScene,
+    pub frame: FrameResources,
+    pub output: wgpu::Texture,
+}
+
+/// The built-in `scene` with its defaults, seen at `w`×`h`.
+pub fn fixture(scene: &str, w: u32, h: u32) -> Fixture {
+    fixture_with(scene, &[], w, h)
+}
+
+/// The built-in `scene` with `settings`, seen at `w`×`h`.
+pub fn fixture_with(scene: &str, settings: &[(&str, &str)], w: u32, h: u32) -> Fixture {
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let settings: Vec<(String, String)> =
+        settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    let scene = crate::scene::builtin::build(scene, &settings).expect("scene");
+    let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
+    let shadows = ShadowSettings { size: 256, filter_radius: 1, depth_bias: 1e-4, normal_offset: 1.5 };
+    let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, Some(shadows)).expect("frame");
+    let view = frame.view;
+    frame.set_view(&ctx, &view, 0);
+    frame.render_inputs(&ctx, &gpu_scene, &mut Profiler::new(&ctx, TimingMode::Passes)).expect("gbuffer");
+    let output = compute::storage_texture(&ctx, "output", w, h, OUTPUT_FORMAT);
+    Fixture { ctx, scene, gpu_scene, frame, output }
+}
+
+impl Fixture {
+    pub fn setup<'a>(&'a self, params: &'a ParamValues) -> TechniqueSetup<'a> {
+        TechniqueSetup {
+            ctx: &self.ctx,
+            scene: &self.scene,
+            gpu_scene: &self.gpu_scene,
+            frame: &self.frame,
+            params,
+            output: &self.output,
+        }
+    }
+}
