@@ -114,6 +114,9 @@ pub struct CellResult {
     pub sweep: BTreeMap<String, String>,
     pub width: u32,
     pub height: u32,
+    /// Frames rendered before the measured ones (the technique entry's `warmup`).
+    #[serde(default = "one")]
+    pub warmup: u32,
     /// The adapter's name.
     pub adapter: String,
     /// The time per frame the plots use: `gpu_ms.mean_ms` where timestamps are reliable, else
@@ -159,6 +162,11 @@ impl CellResult {
 pub enum Progress<'a> {
     Reference { scene: &'a str, time: f32, width: u32, height: u32, spp: u32 },
     Cell { done: usize, total: usize, cell: &'a CellSpec, scene: &'a str },
+}
+
+/// `warmup` of results written before the key existed.
+fn one() -> u32 {
+    1
 }
 
 fn png_base64(rgb: &[u8], width: u32, height: u32) -> Result<String, RenderError> {
@@ -277,6 +285,7 @@ fn run_cell(
         sweep: cell.sweep.iter().cloned().collect(),
         width: cell.width,
         height: cell.height,
+        warmup: cell.warmup,
         adapter: ctx.summary.name.clone(),
         frame_ms: None,
         time_source: String::new(),
@@ -298,10 +307,12 @@ fn run_cell(
     };
     let mut measure = || -> Result<(), RenderError> {
         let mut renderer = Renderer::new(ctx, scene.clone(), &settings)?;
-        let time_of = |frame: u32| -> f32 {
-            if s.times.is_empty() { 0.0 } else { s.times[frame.saturating_sub(1) as usize % s.times.len()] }
+        // Measured frame m (1-based) at times[m − 1]; warm-up frames (m = 0) at times[0].
+        let time_of = |m: u32| -> f32 {
+            if s.times.is_empty() { 0.0 } else { s.times[m.saturating_sub(1) as usize % s.times.len()] }
         };
-        for frame in 0..=suite.frames {
+        for step in 0..cell.warmup + suite.frames {
+            let frame = (step + 1).saturating_sub(cell.warmup);
             let t = time_of(frame);
             if !s.times.is_empty() {
                 renderer.set_time(t)?;
@@ -339,7 +350,7 @@ fn run_cell(
             result.frames.push(FrameError { time: t, error });
         }
         let stats = renderer.stats()?;
-        let (gpu, wall, passes) = timings(&stats, suite.frames + 1);
+        let (gpu, wall, passes) = timings(&stats, cell.warmup + suite.frames);
         result.gpu_ms = gpu;
         result.wall_ms = wall;
         result.passes = passes;

@@ -57,6 +57,7 @@ struct TechniqueFile {
     #[serde(default)]
     sweep: BTreeMap<String, Vec<toml::Value>>,
     scenes: Option<Vec<String>>,
+    warmup: Option<u32>,
 }
 
 /// A parsed, validated suite.
@@ -103,6 +104,10 @@ pub struct CellSpec {
     pub sweep: Vec<(String, String)>,
     pub width: u32,
     pub height: u32,
+    /// Frames rendered before the measured ones (at least 1: the first compiles pipelines lazily on
+    /// some drivers). Temporal techniques keep world-space history (DDGI's probes) across the cut
+    /// before every frame, so more warm-up frames let it converge.
+    pub warmup: u32,
 }
 
 /// A deterministic slice of the matrix: cells whose index is `index` modulo `count`.
@@ -256,7 +261,11 @@ impl Suite {
                 crate::techniques::resolve(&t.technique, &all)
                     .map_err(|e| format!("technique '{}' ({series}): {e}", t.technique))?;
             }
-            entries.push((t.technique.clone(), series, set, sweeps, on));
+            let warmup = t.warmup.unwrap_or(1);
+            if warmup == 0 {
+                return Err(format!("technique '{}' ({series}): warmup must be at least 1", t.technique));
+            }
+            entries.push((t.technique.clone(), series, set, sweeps, on, warmup));
         }
         let mut series_names: Vec<&str> = entries.iter().map(|e| e.1.as_str()).collect();
         series_names.sort_unstable();
@@ -266,7 +275,7 @@ impl Suite {
         let mut cells = Vec::new();
         for &(width, height) in &sizes {
             for scene in 0..scenes.len() {
-                for (technique, series, set, sweeps, on) in &entries {
+                for (technique, series, set, sweeps, on, warmup) in &entries {
                     if !on.contains(&scene) {
                         continue;
                     }
@@ -282,6 +291,7 @@ impl Suite {
                             sweep: sweep.clone(),
                             width,
                             height,
+                            warmup: *warmup,
                         });
                     }
                 }
@@ -329,6 +339,7 @@ label = "igi raster"
 set = { direct = "raster" }
 sweep = { vpls = [64, 256], interleave = ["1x1", "4x4"] }
 scenes = ["cornell"]
+warmup = 5
 "#;
 
     #[test]
@@ -346,6 +357,7 @@ scenes = ["cornell"]
             vec![("interleave".to_string(), "1x1".to_string()), ("vpls".to_string(), "256".to_string())]
         );
         assert_eq!(c.settings[0], ("direct".to_string(), "raster".to_string()));
+        assert_eq!((s.cells[0].warmup, c.warmup), (1, 5));
         assert_eq!((s.cells[10].width, s.cells[10].height), (16, 8));
         assert!(s.cells.iter().enumerate().all(|(i, c)| c.index == i));
         assert_eq!(s.scenes[1].times, vec![0.0, 0.5]);
@@ -391,6 +403,7 @@ scenes = ["cornell"]
             (("label = \"igi raster\"", "label = \"path\""), "labelled"),
             (("sizes = [", "colour = 1\nsizes = ["), "colour"),
             (("vpls = [64, 256]", "vpls = []"), "no values"),
+            (("warmup = 5", "warmup = 0"), "warmup"),
         ] {
             let text = SUITE.replacen(edit.0, edit.1, 1);
             assert_ne!(text, SUITE, "{edit:?} did not apply");

@@ -1,0 +1,130 @@
+#!/usr/bin/env python3
+"""Prints docs/measurements/ddgi.md (issue 12) from a run of benches/ddgi.toml.
+
+    cargo build --release -p rtgi-cli && python3 scripts/measure-ddgi.py     # about 20 min on lavapipe
+
+Runs `rtgi bench benches/ddgi.toml --out $OUT --images` (default target/measure/ddgi), copies its
+report (report.md, report.html, the Pareto SVGs, results.json) to docs/measurements/ddgi-bench/, and
+adds what the bench does not compute: the light in two-rooms' dark room (`rtgi compare --region` of
+each cell's kept image against the reference) and DDGI's per-pass split. Python 3 standard library only.
+"""
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+os.chdir(ROOT)
+os.environ.setdefault("NODEVICE_SELECT", "1")
+RTGI = ROOT / "target/release/rtgi"
+OUT = Path(os.environ.get("OUT", "target/measure/ddgi"))
+DOC = ROOT / "docs/measurements"
+SUITE = ROOT / "benches/ddgi.toml"
+# The floor of two-rooms' dark room (the camera's room) at 128x128: every pixel below the doorway's
+# sill line shows room 2's floor, which only light through the doorway may reach.
+DARK_FLOOR = "0,100,128,28"
+
+
+def sh(*args):
+    return subprocess.run([str(a) for a in args], check=True, capture_output=True, text=True).stdout
+
+
+def label(cell):
+    sweep = " ".join(f"{k}={v}" for k, v in cell["sweep"].items())
+    return f"{cell['series']} {sweep}".strip()
+
+
+def path_flip_at(cells, ms):
+    """FLIP of the path tracer at time `ms`, interpolated in log time along its cells; None outside."""
+    path = sorted((c["frame_ms"], c["error"]["flip"]) for c in cells if c["technique"] == "path" and c["error"])
+    for (t0, f0), (t1, f1) in zip(path, path[1:]):
+        if t0 <= ms <= t1:
+            w = (math.log(ms) - math.log(t0)) / (math.log(t1) - math.log(t0))
+            return f0 + w * (f1 - f0)
+    return None
+
+
+def main():
+    sh("cargo", "build", "--release", "-p", "rtgi-cli")
+    dirty = sh("git", "status", "--porcelain", "--untracked-files=no").strip()
+    if dirty and "--allow-dirty" not in sys.argv:
+        sys.exit("commit first: the figures must name a clean commit (or pass --allow-dirty)")
+    if OUT.exists():
+        shutil.rmtree(OUT)
+    print("running benches/ddgi.toml ...", flush=True)
+    subprocess.run([str(RTGI), "bench", str(SUITE), "--out", str(OUT), "--images"], check=True)
+    results = json.loads((OUT / "results.json").read_text())
+    bench_doc = DOC / "ddgi-bench"
+    if bench_doc.exists():
+        shutil.rmtree(bench_doc)
+    bench_doc.mkdir(parents=True)
+    for f in OUT.iterdir():
+        if f.is_file():
+            shutil.copy(f, bench_doc / f.name)
+    cells = [c for c in results["cells"] if c["error"]]
+    adapter = results["adapters"][0]
+    lines = [
+        "# DDGI (issue 12): measurements", "",
+        f"Printed by `python3 scripts/measure-ddgi.py` from `rtgi bench benches/ddgi.toml` at commit "
+        f"`{results['rtgi']['commit']}` on {adapter['name']} [{adapter['driver_info']}, {adapter['backend']}], "
+        "2 CPU cores. The bench's own report (Pareto plots, every cell with thumbnails and error maps) is in "
+        "[`ddgi-bench/`](ddgi-bench/report.md).", "",
+        "Each cell: a fresh renderer, `warmup` frames (100 for DDGI: its probes converge; a camera cut does not "
+        "clear them), then 3 measured frames, each after a cut (no accumulation), compared with the path-traced "
+        "full-GI reference (256 spp; atrium 128). ms/frame is lavapipe's per-frame GPU time of the whole "
+        "frame (G-buffer included): compare techniques with each other, not with GPU figures.", "",
+    ]
+
+    for scene in dict.fromkeys(c["scene"] for c in cells):
+        sc = [c for c in cells if c["scene"] == scene]
+        lines += [f"## {scene} (128×128)", "",
+                  "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time |", "|---|---|---|---|---|"]
+        for c in sc:
+            p = path_flip_at(sc, c["frame_ms"])
+            at = f"{p:.4f}" if p is not None and c["technique"] != "path" else "–"
+            lines.append(f"| {label(c)} | {c['frame_ms']:.1f} | {c['error']['flip']:.4f} | "
+                         f"{c['error']['rel_mse']:.5f} | {at} |")
+        lines.append("")
+        ddgi = next((c for c in sc if c["series"] == "ddgi" and c["sweep"].get("rays") == "64"), None)
+        igi = next((c for c in sc if c["technique"] == "igi" and c["sweep"].get("vpls") == "1024"), None)
+        if ddgi:
+            split = ", ".join(f"{p['name']} {p['ms_per_frame']:.1f}" for p in ddgi["passes"])
+            k = ddgi["counters"]
+            lines.append(
+                f"DDGI (64 rays) per pass, ms/frame: {split}. {k['probes']:.0f} probes "
+                f"({k['probes_x']:.0f}×{k['probes_y']:.0f}×{k['probes_z']:.0f}), "
+                f"{k['probe_rays_per_frame']:.0f} probe rays per frame at "
+                f"{k['probe_rays_per_second'] / 1e6:.2f} M rays/s (shading shadow rays not counted), atlases "
+                f"{(k['irradiance_atlas_bytes'] + k['distance_atlas_bytes']) / 2**20:.2f} MiB (both ping-pong "
+                f"copies), back-face rays {100 * k['backface_ray_fraction']:.1f} %."
+                + (f" Frame time over igi at 1024 VPLs: {ddgi['frame_ms'] / igi['frame_ms']:.2f}×." if igi else ""))
+            lines.append("")
+
+    # The leak ladder: light on the dark room's floor.
+    two = [c for c in cells if c["scene"] == "two-rooms" and c.get("image_file")]
+    if two:
+        ref_exr = OUT / "two-rooms-reference.exr"
+        sh(RTGI, "reference", "--scene", "two-rooms", "--size", "128x128", "--spp", "256", "--out", ref_exr)
+        lines += ["## Leaks: light on two-rooms' dark floor", "",
+                  f"Mean luminance of the dark room's floor (pixels {DARK_FLOOR}: x, y, w, h) against the "
+                  "reference's; light reaches it only through the doorway. The ladder adds the paper's "
+                  "weights one at a time.", "",
+                  "| cell | floor / reference | FLIP | relMSE |", "|---|---|---|---|"]
+        for c in two:
+            if c["technique"] == "path" and c["sweep"].get("spp") != "8":
+                continue
+            m = json.loads(sh(RTGI, "compare", ref_exr, OUT / "images" / c["image_file"], "--json",
+                              "--region", DARK_FLOOR))
+            r = m["region"]
+            lines.append(f"| {label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
+                         f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f} |")
+        lines.append("")
+    (DOC / "ddgi.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
