@@ -45,6 +45,17 @@ pub struct RenderArgs {
     /// Frames per second of a sequence (the time step between its frames).
     #[arg(long, default_value_t = 30.0, value_name = "F")]
     fps: f32,
+    /// Frames rendered before the first output frame and not written (temporal techniques converge
+    /// their history), at --warmup-time.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    warmup: u32,
+    /// Scene time of the --warmup frames [default: --time]. With --hold, a sequence then shows the step
+    /// response to the change from this pose to --time's (e.g. how DDGI's probes lag a moved light).
+    #[arg(long, allow_negative_numbers = true, value_name = "SECONDS")]
+    warmup_time: Option<f32>,
+    /// Every frame of a sequence at --time (a held pose) instead of advancing by 1 / --fps.
+    #[arg(long)]
+    hold: bool,
     /// Renderer steps per frame of a sequence, all at the frame's time (progressive techniques average
     /// them: `--accumulate 16` gives every frame 16 frames' samples).
     #[arg(long, default_value_t = 1, value_name = "K")]
@@ -98,6 +109,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     if !(args.fps.is_finite() && args.fps > 0.0) {
         bail!("--fps '{}' must be a positive number of frames per second", args.fps);
+    }
+    if let Some(t) = args.warmup_time
+        && !t.is_finite()
+    {
+        bail!("--warmup-time '{t}' is not a finite number of seconds");
     }
     if args.accumulate == 0 {
         bail!("--accumulate must be at least 1");
@@ -154,10 +170,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let bar = progress_bar(steps);
     let result = (|| -> anyhow::Result<()> {
         renderer.set_jitter(jitter)?;
+        if args.warmup > 0 {
+            renderer.set_time(args.warmup_time.unwrap_or(args.time))?;
+            for _ in 0..args.warmup {
+                renderer.step()?;
+            }
+        }
         renderer.set_time(args.time)?;
         for frame in 0..args.frames {
             if let Some(pattern) = &sequence {
-                renderer.set_time(args.time + frame as f32 / args.fps)?;
+                let advance = if args.hold { 0.0 } else { frame as f32 / args.fps };
+                renderer.set_time(args.time + advance)?;
                 for _ in 0..args.accumulate {
                     renderer.step()?;
                 }

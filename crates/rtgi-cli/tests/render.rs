@@ -119,3 +119,49 @@ fn image_size(path: &Path) -> (u32, u32) {
     let h = u32::from_be_bytes([bytes[20], bytes[21], bytes[22], bytes[23]]);
     (w, h)
 }
+
+fn mean_abs_difference(a: &Path, b: &Path) -> f64 {
+    let (a, b) = (rtgi::image::HdrImage::read(a).expect("a"), rtgi::image::HdrImage::read(b).expect("b"));
+    a.rgb.iter().zip(&b.rgb).map(|(x, y)| f64::from((x - y).abs())).sum::<f64>() / a.rgb.len() as f64
+}
+
+/// `--warmup` frames at `--warmup-time`, then a `--hold` sequence at `--time`: the step response of a
+/// temporal technique to a moved light. DDGI's frames approach their final state (each differs less
+/// from the last than the one before it did, on average), while the light itself moved at once.
+#[test]
+fn warmup_and_hold_show_a_temporal_technique_settling_after_a_step() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let common = [
+        "render",
+        "--scene",
+        "cornell-spot:animate=spot",
+        "--technique",
+        "ddgi",
+        "--size",
+        "32x32",
+        "--set",
+        "hysteresis=0.8",
+        "--warmup",
+        "20",
+        "--warmup-time",
+        "0",
+        "--time",
+        "1.5",
+    ];
+    let mut step = common.to_vec();
+    step.extend(["--hold", "--frames", "24", "--out", "step_%02d.exr"]);
+    ok(&rtgi(dir.path(), &step));
+    let frame = |k: u32| dir.path().join(format!("step_{k:02}.exr"));
+    let to_last: Vec<f64> =
+        [0, 4, 8, 16].iter().map(|&k| mean_abs_difference(&frame(k), &frame(23))).collect();
+    assert!(to_last.windows(2).all(|w| w[1] < w[0]), "not settling: {to_last:?}");
+    // Without --hold the frames advance 1/30 s each: the light sweeps on and the last frames differ.
+    let mut moving = common.to_vec();
+    moving.extend(["--frames", "2", "--fps", "2", "--out", "move_%02d.exr"]);
+    ok(&rtgi(dir.path(), &moving));
+    let moved = mean_abs_difference(&dir.path().join("move_00.exr"), &dir.path().join("move_01.exr"));
+    assert!(
+        moved > to_last[3],
+        "a moving light changes the image more ({moved}) than settling ({to_last:?})"
+    );
+}
