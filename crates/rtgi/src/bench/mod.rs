@@ -225,7 +225,7 @@ impl References {
             progress(Progress::Reference { scene: &s.text, time, width, height, spp: s.reference_spp });
             // Without a `seed` the reference uses its own (REFERENCE_SEED), so a `path` cell never
             // shares random numbers with the reference it is compared with.
-            let settings = suite.reference_settings.clone();
+            let settings = s.reference_settings.clone();
             let request = ReferenceRequest { width, height, spp: s.reference_spp, settings };
             let start = Instant::now();
             let posed = scene.posed(time);
