@@ -427,20 +427,35 @@ scenes = ["cornell"]
         assert!(s.scenes[1].reference_settings.is_empty());
     }
 
-    /// The suites the repository ships (benches/*.toml) are valid.
+    /// The suites the repository ships (benches/*.toml) are valid: the bench's own and those the
+    /// measurement scripts run.
     #[test]
     fn the_committed_suites_parse() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches");
-        let mut count = 0;
+        let mut names = Vec::new();
         for entry in std::fs::read_dir(&dir).expect("benches/") {
             let path = entry.expect("entry").path();
             if path.extension().is_some_and(|e| e == "toml") {
                 let suite = Suite::load(&path).unwrap_or_else(|e| panic!("{e}"));
                 assert!(!suite.cells.is_empty(), "{}", path.display());
-                count += 1;
+                names.push(path.file_name().expect("name").to_string_lossy().into_owned());
             }
         }
-        assert!(count >= 2, "benches/quick.toml and benches/gpu.toml");
+        names.sort();
+        assert_eq!(names, ["gpu.toml", "igi.toml", "quick.toml", "rsm-timing.toml", "rsm.toml"]);
+        // The scripts' suites use the per-scene overrides: bumpy-glossy at its own size, with the same
+        // full-GI reference in both (one cached file), while rsm's other references are one-bounce.
+        let load = |name: &str| Suite::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
+        let (igi, rsm) = (load("igi.toml"), load("rsm.toml"));
+        let bumpy =
+            |s: &Suite| s.scenes.iter().find(|x| x.text == "bumpy-glossy").cloned().expect("bumpy-glossy");
+        let (a, b) = (bumpy(&igi), bumpy(&rsm));
+        assert_eq!(
+            (a.sizes, a.reference_spp, a.reference_settings),
+            (b.sizes, b.reference_spp, b.reference_settings)
+        );
+        assert_eq!(rsm.scenes[0].reference_settings, vec![("max_bounces".to_string(), "1".to_string())]);
+        assert!(igi.cells.iter().all(|c| (c.width == 128) == (igi.scenes[c.scene].text == "bumpy-glossy")));
     }
 
     #[test]
