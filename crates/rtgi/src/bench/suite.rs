@@ -300,8 +300,8 @@ impl Suite {
         }
         let mut cells = Vec::new();
         for &(width, height) in &sizes {
-            for scene in 0..scenes.len() {
-                if !scenes[scene].sizes.contains(&(width, height)) {
+            for (scene, suite_scene) in scenes.iter().enumerate() {
+                if !suite_scene.sizes.contains(&(width, height)) {
                     continue;
                 }
                 for (technique, series, set, sweeps, on) in &entries {
