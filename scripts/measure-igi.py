@@ -1,153 +1,132 @@
 #!/usr/bin/env python3
-"""Reproduces the measurements of `igi` and `igi-sh` (issue 4) on this machine.
+"""Measurements of `igi` and `igi-sh` (issue 4): writes docs/measurements/igi.md and its images in
+docs/measurements/igi/.
 
-Writes docs/measurements/igi.md (tables) and docs/measurements/igi/ (images, FLIP error maps).
-Python 3 standard library only; renders with target/release/rtgi (built first). References are
-path-traced once into $REFS (default target/measure/refs) and reused.
+Runs `rtgi bench benches/igi.toml --out $SCRATCH/bench --images` (the renders are declared there) and prints
+every table from its results.json (errors, per-pass times, counters); the comparison of igi with igi-sh, the
+tone-mapped bumpy-glossy images and their FLIP error maps come from `rtgi compare` / `rtgi tonemap` on the
+images the bench kept. Refuses a tree with uncommitted changes (the document names the commit) unless
+--allow-dirty. Environment: see scripts/measure_common.py.
 
-    python3 scripts/measure-igi.py            # everything (about 30 min on 2 CPU cores with lavapipe)
+    python3 scripts/measure-igi.py            # everything (about 5 min on 2 CPU cores with lavapipe, references cached)
 """
-import json
-import os
-import subprocess
+import argparse
 import sys
-from pathlib import Path
+import time
 
-ROOT = Path(__file__).resolve().parent.parent
-os.chdir(ROOT)
-os.environ["NODEVICE_SELECT"] = "1"
-RTGI = ROOT / "target/release/rtgi"
-OUT = Path(os.environ.get("OUT", "target/measure/igi"))
-REFS = Path(os.environ.get("REFS", "target/measure/refs"))
-DOC = ROOT / "docs/measurements"
-IMAGES = DOC / "igi"
-SIZE = "256x256"
-BUMPY_SIZE = "128x128"
+sys.dont_write_bytecode = True
+import measure_common as m  # noqa: E402
 
-
-def sh(*args):
-    return subprocess.run([str(a) for a in args], check=True, capture_output=True, text=True).stdout
-
-
-def commit():
-    """The commit the figures come from, marked when the tree had uncommitted changes."""
-    head = sh("git", "rev-parse", "--short", "HEAD").strip()
-    dirty = sh("git", "status", "--porcelain", "--untracked-files=no").strip()
-    return head + (" (with uncommitted changes)" if dirty else "")
-
-
-def reference(name, scene, spp, *settings, size=SIZE):
-    path = REFS / f"{name}.exr"
-    if not path.exists():
-        extra = [x for s in settings for x in ("--set", s)]
-        print(f"reference {name} ({spp} spp)...", flush=True)
-        sh(RTGI, "reference", "--scene", scene, "--size", size, "--spp", spp, *extra, "--out", path)
-    return path
-
-
-def render(name, scene, technique, *settings, frames=1, size=SIZE):
-    exr, stats = OUT / f"{name}.exr", OUT / f"{name}.json"
-    extra = [x for s in settings for x in ("--set", s)]
-    sh(RTGI, "render", "--scene", scene, "--technique", technique, "--size", size, "--frames", frames,
-       *extra, "--timing", "passes", "--out", exr, "--stats", stats)
-    return exr, json.loads(stats.read_text())
-
-
-def compare(ref, test, error_map=None):
-    extra = ["--error-map", error_map] if error_map else []
-    return json.loads(sh(RTGI, "compare", ref, test, "--json", *extra))
-
-
-def pass_ms(stats, name):
-    """Per-frame wall time of a pass in the frames after the first (whose time includes lavapipe's lazy
-    shader compilation); render with frames >= 2."""
-    for p in stats["passes"]:
-        if p["name"] == name:
-            return p["steady_wall_ms"] if p.get("steady_wall_ms") is not None else p["wall_ms"] / p["calls"]
-    return 0.0
+SCRIPT = "measure-igi"
+DOC = m.ROOT / "docs/measurements/igi.md"
+IMAGES = m.ROOT / "docs/measurements/igi"
+SUITE = "benches/igi.toml"
+CORNELL, BUMPY = "cornell", "bumpy-glossy"
 
 
 def main():
-    sh("cargo", "build", "--release", "-p", "rtgi-cli")
-    for d in (OUT, REFS, IMAGES):
-        d.mkdir(parents=True, exist_ok=True)
-    cornell = reference("cornell-full", "cornell", 1024)
-    # bumpy-glossy's closed bright room makes paths long (28 rays per sample): 128x128 at 512 spp.
-    bumpy = reference("bumpy-glossy-full-128", "bumpy-glossy", 512, size=BUMPY_SIZE)
-    lines = ["# igi and igi-sh: measurements", "",
-             f"Reproduce with `python3 scripts/measure-igi.py` (renders {SIZE}, one frame each: fully "
-             "dynamic, nothing carried between frames). References: `path`, full GI (cornell 1024 spp, bumpy-glossy 512 spp). "
-             f"Adapter: {render('probe', 'cornell', 'igi', 'vpls=64')[1]['adapter']['name']}. "
-             f"Commit: {commit()}.", "",
-             "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are lavapipe wall times of the frames after the first (which includes lazy shader compilation); compare passes with each other, not with GPU figures. The closing note of issue 4 and the README read these tables.", ""]
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--allow-dirty", action="store_true", help="measure a tree with uncommitted changes")
+    a = ap.parse_args()
+    m.refuse_dirty_tree(a.allow_dirty, SCRIPT)
+    t0 = time.time()
+    rtgi = m.rtgi_binary()
+    IMAGES.mkdir(parents=True, exist_ok=True)
+    m.log(SCRIPT, f"rtgi bench {SUITE}")
+    b = m.Bench(rtgi, SUITE, m.scratch(SCRIPT) / "bench")
+    commit, adapter = m.same_run([b])
+
+    def size(scene):
+        c = next(c for c in b.results["cells"] if c["scene"] == scene)
+        return f"{c['width']}x{c['height']}"
+
+    ref_text = m.join_and([m.reference_text(r) for r in b.references()])
+    frames = b.results["suite"]["frames"]
+
+    def igi(scene=CORNELL, technique="igi", **settings):
+        return b.cell(scene, technique, **settings)
+
+    def row(c):
+        return f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f}"
+
+    header = lambda seconds: ["# igi and igi-sh: measurements", "",
+             f"Printed by `python3 scripts/measure-igi.py` from `rtgi bench {SUITE}` (the renders are declared "
+             f"there) at commit `{commit}` on the adapter {m.adapter_text(adapter)}. cornell at {size(CORNELL)}, "
+             f"bumpy-glossy at {size(BUMPY)}; every cell renders one warm-up frame and {frames} measured frames, "
+             "each afresh (fully dynamic, nothing carried between frames); errors are those of the first "
+             f"measured frame. References (`path`, from the reference cache or rendered once): {ref_text}. The run took "
+             f"{m.duration(seconds)}, of which {b.reference_seconds:.0f} s went to rendering references "
+             "(0 s when cached).", "",
+             "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is "
+             "dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are "
+             f"{m.time_source([b])} around every pass (one command encoder per frame) on lavapipe, mean of the measured frames (the warm-up frame, which includes "
+             "lazy shader compilation, excluded); compare passes with each other, not with GPU figures. The "
+             "closing note of issue 4 and the README read these tables.", ""]
 
     # 1. Convergence on cornell.
-    lines += ["## Convergence to the full-GI reference (cornell, interleave 4x4, filter on, g_max=0, direct=vpl)", "",
+    lines = ["## Convergence to the full-GI reference (cornell, interleave 4x4, filter on, g_max=0, direct=vpl)", "",
               "| technique | VPLs | FLIP | relMSE |", "|---|---|---|---|"]
     for technique in ("igi", "igi-sh"):
         for vpls in (64, 256, 1024, 4096):
-            exr, st = render(f"conv-{technique}-{vpls}", "cornell", technique, f"vpls={vpls}", "direct=vpl")
-            m = compare(cornell, exr)
-            lines.append(f"| {technique} | {vpls} | {m['flip']:.4f} | {m['rel_mse']:.5f} |")
+            lines.append(f"| {technique} | {vpls} | {row(igi(technique=technique, direct='vpl', vpls=vpls))} |")
     lines.append("")
 
     # 2. Interleaving.
     lines += ["## Interleaved sampling (cornell, igi, direct=vpl)", "",
               "| setting | FLIP | relMSE |", "|---|---|---|"]
     for n in (1024, 4096):
-        for label, settings in ((f"interleave=4x4, filter, {n} VPLs", ["interleave=4x4", f"vpls={n}"]),
-                                (f"interleave=1x1, {n // 16} VPLs", ["interleave=1x1", f"vpls={n // 16}"]),
-                                (f"interleave=1x1, {n} VPLs", ["interleave=1x1", f"vpls={n}"])):
-            exr, st = render("il-" + label.replace(" ", "").replace(",", "-"), "cornell", "igi", *settings,
-                             "direct=vpl")
-            m = compare(cornell, exr)
-            lines.append(f"| {label} | {m['flip']:.4f} | {m['rel_mse']:.5f} |")
+        for label, settings in ((f"interleave=4x4, filter, {n} VPLs", {"vpls": n}),
+                                (f"interleave=1x1, {n // 16} VPLs", {"interleave": "1x1", "vpls": n // 16}),
+                                (f"interleave=1x1, {n} VPLs", {"interleave": "1x1", "vpls": n})):
+            lines.append(f"| {label} | {row(igi(direct='vpl', **settings))} |")
     lines.append("")
 
     # 3. The paper's claim on bumpy-glossy.
-    lines += [f"## Normal-mapped glossy surfaces (bumpy-glossy {BUMPY_SIZE}, 1024 VPLs, interleave 4x4)", "",
+    lines += [f"## Normal-mapped glossy surfaces (bumpy-glossy {size(BUMPY)}, 1024 VPLs, interleave 4x4)", "",
               "Images (`.png`, tone-mapped) and FLIP error maps (`-flip.png`) in `docs/measurements/igi/`; "
               "`bumpy-reference.png` is the reference.", "",
               "| direct light | g_max | variant | FLIP | relMSE |", "|---|---|---|---|---|"]
-    variants = (("igi, normal test", "igi", ["filter_normals=true"]),
-                ("igi, no normal test", "igi", ["filter_normals=false"]),
-                ("igi-sh", "igi-sh", []),
-                ("igi, unfiltered", "igi", ["filter=false"]))
+    variants = (("igi, normal test", "igi", {"filter_normals": True}),
+                ("igi, no normal test", "igi", {"filter_normals": False}),
+                ("igi-sh", "igi-sh", {}),
+                ("igi, unfiltered", "igi", {"filter": False}))
+    reference = b.reference(BUMPY)
     for direct in ("vpl", "raster"):
-        for g_max in ("0", "2"):
+        for g_max in (0, 2):
             for label, technique, settings in variants:
+                c = igi(BUMPY, technique, vpls=1024, direct=direct, g_max=g_max, **settings)
                 tag = f"bumpy-{direct}-g{g_max}-{label.replace(', ', '-').replace(' ', '-')}"
-                exr, _ = render(tag, "bumpy-glossy", technique, "vpls=1024", f"direct={direct}",
-                                f"g_max={g_max}", *settings, size=BUMPY_SIZE)
-                m = compare(bumpy, exr, IMAGES / f"{tag}-flip.png")
-                sh(RTGI, "tonemap", exr, IMAGES / f"{tag}.png")
-                lines.append(f"| {direct} | {g_max} | {label} | {m['flip']:.4f} | {m['rel_mse']:.5f} |")
-    sh(RTGI, "tonemap", bumpy, IMAGES / "bumpy-reference.png")
+                again = m.compare(rtgi, reference, b.image(c), IMAGES / f"{tag}-flip.png")
+                if abs(again["flip"] - c["error"]["flip"]) > 1e-6:
+                    sys.exit(f"{tag}: rtgi compare gives FLIP {again['flip']} for the kept image, the bench "
+                             f"{c['error']['flip']}: the kept image is not the one measured")
+                m.tonemap(rtgi, b.image(c), IMAGES / f"{tag}.png")
+                lines.append(f"| {direct} | {g_max} | {label} | {row(c)} |")
+    m.tonemap(rtgi, reference, IMAGES / "bumpy-reference.png")
     lines.append("")
 
     # 4. Diffuse agreement.
-    a, _ = render("agree-igi", "cornell", "igi", "vpls=1024", "direct=vpl")
-    b, _ = render("agree-igi-sh", "cornell", "igi-sh", "vpls=1024", "direct=vpl")
-    m = compare(a, b)
+    a, s = igi(direct="vpl", vpls=1024), igi(technique="igi-sh", direct="vpl", vpls=1024)
+    agree = m.compare(rtgi, b.image(a), b.image(s))
     lines += ["## igi vs igi-sh on the diffuse cornell (1024 VPLs, same VPLs)", "",
-              f"FLIP {m['flip']:.4f}, relMSE {m['rel_mse']:.5f} between the two images.", ""]
+              f"FLIP {agree['flip']:.4f}, relMSE {agree['rel_mse']:.5f} between the two images "
+              "(`rtgi compare` of the cells' kept frames).", ""]
 
     # 5. Cost per pass and memory.
-    lines += ["## Cost per pass (cornell, interleave 4x4, ms per frame: mean wall time of frames 2-3)", "",
+    lines += [f"## Cost per pass (cornell, interleave 4x4, direct=vpl, ms per frame: mean of the {frames} measured "
+              "frames)", "",
               "| VPLs | pass | igi | igi-sh | igi-sh - igi |", "|---|---|---|---|---|"]
     names = ["gbuffer", "vpl generation", "visibility + accumulation", "discontinuity filter", "shading"]
     summary = []
     for vpls in (256, 1024, 4096):
-        costs = {}
-        for technique in ("igi", "igi-sh"):
-            _, costs[technique] = render(f"cost-{technique}-{vpls}", "cornell", technique, f"vpls={vpls}", "direct=vpl",
-                                         frames=3)
+        costs = {t: igi(technique=t, direct="vpl", vpls=vpls) for t in ("igi", "igi-sh")}
+        ms = lambda t, n: m.pass_ms(costs[t], n) or 0.0
         for n in names:
-            a, b = pass_ms(costs["igi"], n), pass_ms(costs["igi-sh"], n)
-            lines.append(f"| {vpls} | {n} | {a:.2f} | {b:.2f} | {b - a:+.2f} |")
+            lines.append(f"| {vpls} | {n} | {ms('igi', n):.2f} | {ms('igi-sh', n):.2f} | "
+                         f"{ms('igi-sh', n) - ms('igi', n):+.2f} |")
         per_pixel = costs["igi"]["counters"]["vpl_slots"] / costs["igi"]["counters"]["sets"]
-        ray = pass_ms(costs["igi"], "visibility + accumulation") / per_pixel
-        delta = {n: pass_ms(costs["igi-sh"], n) - pass_ms(costs["igi"], n) for n in names[2:]}
+        ray = ms("igi", "visibility + accumulation") / per_pixel
+        delta = {n: ms("igi-sh", n) - ms("igi", n) for n in names[2:]}
         summary.append(f"- {vpls} VPLs ({per_pixel:.0f} per pixel): one shadow ray per pixel costs {ray:.2f} ms "
                        f"(igi's visibility pass / VPLs per pixel). igi-sh minus igi: projection instead of the "
                        f"BRDF in the gather {delta[names[2]]:+.2f} ms, filter of 7 instead of 1 half-float "
@@ -156,14 +135,16 @@ def main():
                        f"pixel, all three = {sum(delta.values()) / ray:.2f}.")
     lines += [""] + summary + [""]
     lines += ["| bytes per pixel | igi | igi-sh |", "|---|---|---|"]
-    costs = {t: json.loads((OUT / f"cost-{t}-1024.json").read_text()) for t in ("igi", "igi-sh")}
+    costs = {t: igi(technique=t, direct="vpl", vpls=1024) for t in ("igi", "igi-sh")}
     for key in ("gbuffer_bytes_per_pixel", "accumulation_bytes_per_pixel", "filtered_bytes_per_pixel",
                 "clamp_stats_bytes_per_pixel", "direct_bytes_per_pixel", "output_bytes_per_pixel"):
         lines.append(f"| {key.replace('_bytes_per_pixel', '')} | {costs['igi']['counters'][key]:.0f} | "
                      f"{costs['igi-sh']['counters'][key]:.0f} |")
     lines.append("")
-    (DOC / "igi.md").write_text("\n".join(lines) + "\n")
+    lines = header(time.time() - t0) + lines
+    DOC.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
+    m.log(SCRIPT, f"wrote {DOC.relative_to(m.ROOT)} in {m.duration(time.time() - t0)}")
 
 
 if __name__ == "__main__":

@@ -1,84 +1,49 @@
 #!/usr/bin/env python3
 """Measurements of `rsm`, `rsm-interleaved` and `sii` (issue 5): writes the whole of docs/measurements/rsm.md.
 
-Every table and every measured number in the prose is computed from this run's renders; the header names the
-command, the commit (`git describe --always --dirty`) and the adapter. Sections:
+The renders are bench suites: benches/rsm.toml (errors, point lights, two-rooms; one frame per cell) and
+benches/rsm-timing.toml (the timing sweep). This script runs `rtgi bench SUITE --out $SCRATCH/<suite> --images`
+and computes every table and every measured number in the prose from their results.json (errors against the
+reference, per-pass times, counters) and, for what the bench does not compare, `rtgi compare` on the images it
+kept (errors against the brute-force gather, `--region` luminance). The header names the command, the commit
+and the adapter (from results.json). Sections:
   errors      error against the one-bounce reference (`path`, max_bounces=1) on cornell-spot 256², and against
               the methods' own converged value (brute-force gather of every RSM texel: no indirect occlusion);
   pointlights cube RSMs: bumpy-glossy's three point lights, against the brute-force gather;
   timing      the thesis's timing sweep as ratios interleaved / non-interleaved, for gather and for splatting;
   tworooms    light reaching the dark room of two-rooms, per technique and in the references.
 
-Usage: scripts/measure-rsm.py [--out FILE|-] [--sections errors,pointlights,timing,tworooms] [--no-full]
-  --out        the document to write (default docs/measurements/rsm.md; '-' prints it). With --sections, only
-               those sections are printed to stdout and no file is written unless --out is given.
-  --no-full    skip the all-bounce two-rooms reference (256 spp, slow when not cached).
-Environment: RTGI (binary, default target/release/rtgi), SCRATCH (renders, default target/measure-rsm),
-FRAMES (frames per timing render, default 4). References come from `rtgi reference` (cached in
-$RTGI_CACHE_DIR or the default cache; rendered once when missing).
+Usage: scripts/measure-rsm.py [--out FILE|-] [--sections errors,pointlights,timing,tworooms] [--allow-dirty]
+  --out          the document to write (default docs/measurements/rsm.md; '-' prints it). With --sections, only
+                 those sections are printed to stdout and no file is written unless --out is given; only the
+                 suites those sections need are run.
+  --allow-dirty  measure a tree with uncommitted changes (the commit is then marked -dirty); refused otherwise.
+Environment: see scripts/measure_common.py (RTGI, SCRATCH, reference cache).
 """
 import argparse
-import json
 import os
-import subprocess
 import sys
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-os.chdir(ROOT)
-os.environ.setdefault("NODEVICE_SELECT", "1")
-RTGI = os.environ.get("RTGI", "target/release/rtgi")
-SCRATCH = os.environ.get("SCRATCH", "target/measure-rsm")
-FRAMES = int(os.environ.get("FRAMES", "4"))
+sys.dont_write_bytecode = True
+import measure_common as m  # noqa: E402
+from measure_common import join_and  # noqa: E402
+
+SCRIPT = "measure-rsm"
 ALL_SECTIONS = ["errors", "pointlights", "timing", "tworooms"]
 COUNTS = [64, 256, 1024]
 TIMING_COUNTS = [64, 128, 256, 512, 768, 1024]
 PATTERNS = ["2x2", "2x4", "4x4", "8x8"]
+CS, TR, BG = "cornell-spot", "two-rooms", "bumpy-glossy"
 
 
-def log(msg):
-    print(f"[measure-rsm {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
+def settings_of(text):
+    """'interleave=2x2 rescale=false' as keyword arguments of Bench.cell."""
+    return dict(kv.split("=") for kv in text.split())
 
 
-def run(cmd):
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"failed: {' '.join(cmd)}\n{r.stdout}\n{r.stderr}")
-    return r.stdout
-
-
-def render(name, scene, technique, settings=(), frames=1, size=256):
-    out = f"{SCRATCH}/{name}.exr"
-    cmd = [RTGI, "render", "--scene", scene, "--technique", technique, "--size", f"{size}x{size}",
-           "--frames", str(frames), "--timing", "passes", "--out", out, "--stats", f"{SCRATCH}/{name}.json"]
-    for s in settings:
-        cmd += ["--set", s]
-    run(cmd)
-    with open(f"{SCRATCH}/{name}.json") as f:
-        return out, json.load(f)
-
-
-def reference(name, scene, spp, settings=()):
-    out = f"{SCRATCH}/refs/{name}.exr"
-    os.makedirs(os.path.dirname(out), exist_ok=True)
-    cmd = [RTGI, "reference", "--scene", scene, "--size", "256x256", "--spp", str(spp), "--out", out]
-    for s in settings:
-        cmd += ["--set", s]
-    t = time.time()
-    log(f"reference {name} ({spp} spp)")
-    run(cmd)
-    return out, time.time() - t
-
-
-def compare(ref, test, region=None):
-    cmd = [RTGI, "compare", ref, test, "--json"]
-    if region:
-        cmd += ["--region", region]
-    return json.loads(run(cmd))
-
-
-def lum(ref, test, region):
-    g = compare(ref, test, region)["region"]
+def lum(ctx, ref, test, region):
+    g = m.compare(ctx["rtgi"], ref, test, region=region)["region"]
     return g["test_luminance"], g["reference_luminance"]
 
 
@@ -98,11 +63,6 @@ def pct(x):
     return f"{100 * x:.1f} %"
 
 
-def join_and(items):
-    items = list(items)
-    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
-
-
 # ---------------------------------------------------------------------------------------------------------------
 ERROR_ROWS = [
     ("rsm", "samples", ""), ("rsm", "samples", "weighting=xi2"), ("rsm", "samples", "r_max=0.5"),
@@ -117,21 +77,20 @@ ERROR_ROWS = [
 
 def section_errors(ctx):
     o = []
-    ref, _ = ctx["ref_cs"]
-    log("errors: brute force")
-    bf, bf_stats = render("bruteforce", "cornell-spot", "rsm", ["brute_force=true", "downsample=1"])
-    direct, _ = render("direct", "cornell-spot", "direct")
-    bf_m, direct_m = compare(ref, bf), compare(ref, direct)
-    ctx["bf_seconds"] = bf_stats["wall_ms"] / 1000
+    bench, rtgi = ctx["rsm"], ctx["rtgi"]
+    ref = bench.reference(CS)
+    bf_cell, direct_cell = bench.cell(CS, "rsm", brute_force=True, downsample=1), bench.cell(CS, "direct")
+    bf, direct = bench.image(bf_cell), bench.image(direct_cell)
+    bf_m, direct_m = bf_cell["error"], direct_cell["error"]
+    ctx["bf_seconds"] = bf_cell["frame_ms"] / 1000
     res, stats, imgs = {}, {}, {}
+    m.log(SCRIPT, "errors: against the brute-force gather")
     for tech, key, settings in ERROR_ROWS:
-        log(f"errors: {tech} {settings}")
         for n in COUNTS:
-            name = f"err-{tech}-{settings.replace(' ', '_').replace('=', '')}-{n}"
-            img, st = render(name, "cornell-spot", tech, [f"{key}={n}"] + settings.split())
-            r, b = compare(ref, img), compare(bf, img)
-            res[(tech, settings, n)] = (r["flip"], r["rel_mse"], b["rel_mse"])
-            stats[(tech, settings, n)] = st
+            c = bench.cell(CS, tech, **{key: n}, **settings_of(settings))
+            img = bench.image(c)
+            res[(tech, settings, n)] = (c["error"]["flip"], c["error"]["rel_mse"], m.compare(rtgi, bf, img)["rel_mse"])
+            stats[(tech, settings, n)] = c
             imgs[(tech, settings, n)] = img
 
     def rel(tech, settings=""):
@@ -141,7 +100,7 @@ def section_errors(ctx):
         return [res[(tech, settings, n)][2] for n in COUNTS]
 
     o.append("### Error against the one-bounce reference (cornell-spot 256², 1 frame)\n")
-    o.append("FLIP / relMSE against `path max_bounces=1` (1024 spp); in brackets relMSE against the brute-force gather")
+    o.append(f"FLIP / relMSE against `path max_bounces=1` ({ctx['refs'][CS]['spp']} spp); in brackets relMSE against the brute-force gather")
     o.append("of all RSM texels (the methods' converged value, without indirect occlusion). Columns: samples (`rsm`) or")
     o.append("VPLs (`sii`).\n")
     o.append(f"brute-force gather vs reference: FLIP {bf_m['flip']:.4f}, relMSE {bf_m['rel_mse']:.5f} —")
@@ -175,7 +134,7 @@ def section_errors(ctx):
                ("the floor strip", "0,200,256,56"), ("the tall block's front", "60,110,70,110")]
     ratios = []
     for label, reg in regions:
-        t, r = lum(ref, bf, reg)
+        t, r = lum(ctx, ref, bf, reg)
         ratios.append((label, reg, t / r))
     share = f"{100 * bf_m['rel_mse'] / r1024:.0f} % of `rsm`'s {r1024:.5f} and {100 * bf_m['rel_mse'] / s1024:.0f} % of `sii`'s {s1024:.5f}"
     dom = "dominates" if bf_m["rel_mse"] >= 0.5 * max(r1024, s1024) else "does not dominate"
@@ -223,13 +182,13 @@ def section_errors(ctx):
 
     # 6. rescaling
     whole = "0,0,256,256"
-    ld = lum(ref, direct, whole)[0]
-    li = lum(ref, imgs[("sii", "", COUNTS[-1])], whole)[0] - ld
+    ld = lum(ctx, ref, direct, whole)[0]
+    li = lum(ctx, ref, imgs[("sii", "", COUNTS[-1])], whole)[0] - ld
     parts = []
     for p in ["2x2", "4x4", "8x8"]:
         a, b = [int(x) for x in p.split("x")]
-        ln = lum(ref, imgs[("sii", f"interleave={p} rescale=false", COUNTS[-1])], whole)[0] - ld
-        lr = lum(ref, imgs[("sii", f"interleave={p}", COUNTS[-1])], whole)[0] - ld
+        ln = lum(ctx, ref, imgs[("sii", f"interleave={p} rescale=false", COUNTS[-1])], whole)[0] - ld
+        lr = lum(ctx, ref, imgs[("sii", f"interleave={p}", COUNTS[-1])], whole)[0] - ld
         parts.append(f"{p.replace('x', '×')}: 1/{li / ln:.2f} without rescaling (expected 1/{a * b}), {lr / li:.3f}× with")
     nr = {p: rel("sii", f"interleave={p} rescale=false") for p in ["2x2", "4x4", "8x8"]}
     spread = max(max(v) / min(v) - 1 for v in nr.values())
@@ -245,27 +204,27 @@ def section_errors(ctx):
 
 def section_pointlights(ctx):
     o = []
-    log("pointlights")
-    common = ["rsm_size=64"]
-    bf, _ = render("pl-bf", "bumpy-glossy", "rsm", ["brute_force=true", "downsample=1"] + common, size=128)
-    direct, _ = render("pl-direct", "bumpy-glossy", "direct", size=128)
-    whole = "0,0,128,128"
+    m.log(SCRIPT, "pointlights")
+    bench = ctx["rsm"]
+    bf_cell = bench.cell(BG, "rsm", brute_force=True, downsample=1, rsm_size=64)
+    bf, direct = bench.image(bf_cell), bench.image(bench.cell(BG, "direct"))
+    whole = f"0,0,{bf_cell['width']},{bf_cell['height']}"
 
-    def m(img):
-        c = compare(bf, img, whole)
+    def against_bf(img):
+        c = m.compare(ctx["rtgi"], bf, img, region=whole)
         return c["rel_mse"], c["region"]["test_luminance"] / c["region"]["reference_luminance"]
 
     texels = 64 * 64 * 6 * 3
-    o.append("### Point lights (cube RSMs): bumpy-glossy 128², RSM 64² × 6 faces × 3 lights\n")
-    o.append(f"Against the brute-force gather of all {texels:,} texels (the converged value; no path-traced one-bounce")
-    o.append("reference of this scene is rendered): relMSE, and in brackets the mean luminance over the image as a ratio.\n")
+    o.append(f"### Point lights (cube RSMs): bumpy-glossy {bf_cell['width']}², RSM 64² × 6 faces × 3 lights\n")
+    o.append(f"Against the brute-force gather of all {texels:,} texels (the converged value; the suite's full-GI")
+    o.append("reference of this scene is not used): relMSE, and in brackets the mean luminance over the image as a ratio.\n")
     o.append("| technique | " + " | ".join(map(str, COUNTS)) + " |")
     o.append("|---|" + "---|" * len(COUNTS))
-    d = m(direct)
+    d = against_bf(direct)
     o.append("| direct | " + " | ".join(["%.4f (%.3f)" % d] * len(COUNTS)) + " |")
     r = {}
     for tech, key in [("rsm", "samples"), ("sii", "vpls")]:
-        r[tech] = [m(render(f"pl-{tech}-{n}", "bumpy-glossy", tech, common + [f"{key}={n}"], size=128)[0]) for n in COUNTS]
+        r[tech] = [against_bf(bench.image(bench.cell(BG, tech, rsm_size=64, **{key: n}))) for n in COUNTS]
         o.append(f"| {tech} | " + " | ".join("%.4f (%.3f)" % x for x in r[tech]) + " |")
     o.append("")
     conv = all(falls([x[0] for x in r[t]]) for t in r)
@@ -280,16 +239,9 @@ def section_pointlights(ctx):
     return o
 
 
-def window_ms(stats, names):
-    passes = {p["name"]: p for p in stats["passes"]}
-    return sum(passes[n]["steady_wall_ms"] for n in names if n in passes and passes[n]["steady_wall_ms"] is not None)
-
-
-def pass_ms(stats, name):
-    for p in stats["passes"]:
-        if p["name"] == name:
-            return p["steady_wall_ms"]
-    return None
+def window_ms(cell, names):
+    """Time per frame of the named passes together (those the cell has)."""
+    return sum(ms for ms in (m.pass_ms(cell, n) for n in names) if ms is not None)
 
 
 # Hahn 2012 (thesis), interleaved / non-interleaved at 1024 samples, GT 525M: cited, not measured here.
@@ -298,7 +250,11 @@ THESIS = {"2x4": (27.4, 36.4), "4x4": (17.6, 34.6), "8x8": (7.7, 21.9)}
 
 def section_timing(ctx):
     o = []
-    o.append(f"### Timing sweep: interleaved / non-interleaved (256², RSM 256², mean of frames 2–{FRAMES}, lavapipe wall time)\n")
+    bench = ctx["timing"]
+    frames = bench.results["suite"]["frames"]
+    pass_ms = m.pass_ms
+    o.append(f"### Timing sweep: interleaved / non-interleaved (256², RSM 256², mean of {frames} frames after a warm-up frame, "
+             f"lavapipe, {ctx['time_source']})\n")
     o.append("Window as in the thesis: after RSM generation to after the blur. Gather: split + gather + merge +")
     o.append("discontinuity filter over the non-interleaved full-resolution gather; splatting: split + splat + merge +")
     o.append("filter over the non-interleaved splat (VPL selection, common to both, excluded). In brackets: the")
@@ -311,19 +267,18 @@ def section_timing(ctx):
         o.append("| count | 1x1 ms | " + " | ".join(PATTERNS) + " |")
         o.append("|---|---|" + "---|" * len(PATTERNS))
         for n in TIMING_COUNTS:
-            log(f"timing {kind} {n}")
             if kind == "gather":
-                _, st = render(f"t-{kind}-{n}-1x1", "cornell-spot", "rsm", [f"samples={n}", "downsample=1"], FRAMES)
+                st = bench.cell(CS, "rsm", samples=n, downsample=1)
             else:
-                _, st = render(f"t-{kind}-{n}-1x1", "cornell-spot", "sii", [f"vpls={n}"], FRAMES)
+                st = bench.cell(CS, "sii", vpls=n)
             b = window_ms(st, [core])
             base[(kind, n)] = (b, st)
             row = f"| {n} | {b:.2f} |"
             for p in PATTERNS:
                 if kind == "gather":
-                    _, s = render(f"t-{kind}-{n}-{p}", "cornell-spot", "rsm-interleaved", [f"samples={n}", f"interleave={p}"], FRAMES)
+                    s = bench.cell(CS, "rsm-interleaved", samples=n, interleave=p)
                 else:
-                    _, s = render(f"t-{kind}-{n}-{p}", "cornell-spot", "sii", [f"vpls={n}", f"interleave={p}"], FRAMES)
+                    s = bench.cell(CS, "sii", vpls=n, interleave=p)
                 w = window_ms(s, ["split", core, "merge", "discontinuity filter"]) / b
                 c = window_ms(s, [core]) / b
                 T[(kind, n, p)] = (w, c, s)
@@ -387,8 +342,8 @@ def section_timing(ctx):
              "interleaving cannot reduce. Its conclusion \"interleaving suits gather better than scatter\" is therefore a "
              "property of that implementation, to be judged against the splat column above.")
     lo = [base[("gather", n)][0] for n in TIMING_COUNTS[:2]]
-    o.append(f"- **Noise and scope**: absolute times are CPU-driver wall times (per-pass, frames 2–{FRAMES}, without the "
-             "first frame's lazy shader compilation): only the ratios are meant to compare. Each entry is a single run, "
+    o.append(f"- **Noise and scope**: absolute times are a CPU driver's ({ctx['time_source']}; per pass, mean of {frames} "
+             "frames, without the warm-up frame's lazy shader compilation): only the ratios are meant to compare. Each entry is a single run, "
              f"and the non-interleaved baselines at {TIMING_COUNTS[0]}–{TIMING_COUNTS[1]} samples are short "
              f"({lo[0]:.0f}–{lo[1]:.0f} ms) so the fixed-cost passes dominate their ratios.")
     return o
@@ -396,25 +351,24 @@ def section_timing(ctx):
 
 def section_tworooms(ctx):
     o = []
-    b1, _ = ctx["ref_tr"]
-    full = ctx.get("ref_full")
-    log("tworooms")
+    m.log(SCRIPT, "tworooms")
+    bench = ctx["rsm"]
+    b1 = bench.reference(TR)
+    full_cell = bench.cell(TR, "path", spp=ctx["full_spp"])
     R = [("floor", "0,200,256,56"), ("ceiling", "0,0,230,15"), ("right wall", "240,60,16,120")]
-    imgs = [("path max_bounces=1 (reference)", b1)]
-    if full:
-        imgs.append((f"path, all bounces ({ctx['full_spp']} spp)", full[0]))
-    for label, name, tech, sets in [
-        ("direct", "tr-direct", "direct", []),
-        ("rsm brute force (rsm_size 128): no indirect occlusion", "tr-bruteforce", "rsm", ["brute_force=true", "downsample=1", "rsm_size=128"]),
-        ("rsm 1024", "tr-rsm", "rsm", ["samples=1024"]),
-        ("rsm 1024, r_max=1.5", "tr-rsm15", "rsm", ["samples=1024", "r_max=1.5"]),
-        ("rsm-interleaved 4x4 1024", "tr-rsmi", "rsm-interleaved", ["samples=1024", "interleave=4x4"]),
-        ("sii 1024", "tr-sii", "sii", ["vpls=1024"]),
-        ("sii 4x4 1024", "tr-siii", "sii", ["vpls=1024", "interleave=4x4"]),
-        ("sii 4x4 1024 rescale=false", "tr-siin", "sii", ["vpls=1024", "interleave=4x4", "rescale=false"]),
+    imgs = [("path max_bounces=1 (reference)", b1), (f"path, all bounces ({ctx['full_spp']} spp)", bench.image(full_cell))]
+    for label, tech, sets in [
+        ("direct", "direct", {}),
+        ("rsm brute force (rsm_size 128): no indirect occlusion", "rsm", dict(brute_force=True, downsample=1, rsm_size=128)),
+        ("rsm 1024", "rsm", dict(samples=1024, r_max=1.0)),
+        ("rsm 1024, r_max=1.5", "rsm", dict(samples=1024, r_max=1.5)),
+        ("rsm-interleaved 4x4 1024", "rsm-interleaved", dict(samples=1024, interleave="4x4")),
+        ("sii 1024", "sii", dict(vpls=1024, interleave="1x1")),
+        ("sii 4x4 1024", "sii", dict(vpls=1024, interleave="4x4")),
+        ("sii 4x4 1024 rescale=false", "sii", dict(vpls=1024, interleave="4x4", rescale=False)),
     ]:
-        imgs.append((label, render(name, "two-rooms", tech, sets)[0]))
-    L = {label: [lum(b1, img, r)[0] for _, r in R] for label, img in imgs}
+        imgs.append((label, bench.image(bench.cell(TR, tech, **sets))))
+    L = {label: [lum(ctx, b1, img, r)[0] for _, r in R] for label, img in imgs}
     ref = L["path max_bounces=1 (reference)"]
     o.append("### Light in the dark room of two-rooms (256², 1024 samples / VPLs)\n")
     o.append("Mean luminance (linear radiance) in pixel rectangles that show only room 2 (the camera's room): its floor")
@@ -445,16 +399,15 @@ def section_tworooms(ctx):
              + "The receiver's own orientation is the only thing that stops a leak: a surface facing away from every "
              f"room-1 texel receives none. The interleaved SII without rescaling shows {x(nr[0], ref[0])} on the floor "
              "only because it drops 15/16 of all indirect light.")
-    if full:
-        fv = L[imgs[1][0]]
-        rel_ = lambda a, b: f"{a / b:.2f}×" if b > 1e-6 else "-"
-        o.append("")
-        o.append(f"The all-bounce reference ({ctx['full_spp']} spp) shows room 2 with every bounce at floor "
-                 f"{rel_(fv[0], ref[0])} and ceiling {rel_(fv[1], ref[1])} the one-bounce value, and {fv[2]:.5f} on the right "
-                 "wall: light comes through the doorway and keeps bouncing. Against it the converged one-bounce RSM methods "
-                 f"(brute force) give right wall {bfv[2]:.5f} vs {fv[2]:.5f}, ceiling {rel_(bfv[1], fv[1])}, floor "
-                 f"{rel_(bfv[0], fv[0])} — but whatever the match, their room-2 light is a leak through the wall, "
-                 "distributed by orientation towards room 1's lit surfaces, not light scattered through the doorway.")
+    fv = L[imgs[1][0]]
+    rel_ = lambda a, b: f"{a / b:.2f}×" if b > 1e-6 else "-"
+    o.append("")
+    o.append(f"The all-bounce `path` image ({ctx['full_spp']} spp, a cell of the suite) shows room 2 with every bounce at floor "
+             f"{rel_(fv[0], ref[0])} and ceiling {rel_(fv[1], ref[1])} the one-bounce value, and {fv[2]:.5f} on the right "
+             "wall: light comes through the doorway and keeps bouncing. Against it the converged one-bounce RSM methods "
+             f"(brute force) give right wall {bfv[2]:.5f} vs {fv[2]:.5f}, ceiling {rel_(bfv[1], fv[1])}, floor "
+             f"{rel_(bfv[0], fv[0])} — but whatever the match, their room-2 light is a leak through the wall, "
+             "distributed by orientation towards room 1's lit surfaces, not light scattered through the doorway.")
     return o
 
 
@@ -493,8 +446,8 @@ FIXED_WEAKER = """### What is weaker than asked, or different
   runs at full resolution (no downsampling); the thesis interleaved a 512² buffer and then upsampled.
 - **The interleaved blur filters outgoing radiance**, not irradiance divided by albedo: fine on the untextured
   test scenes, it would blur albedo texture detail (the material test keeps it from crossing objects).
-- **Timings are lavapipe wall times** per pass, without the first frame (which includes lazy shader
-  compilation, as the GPU-timestamp totals would).
+- **Timings are lavapipe's per-pass {time_source}** from `rtgi bench` (all passes of a frame in one
+  command encoder), without the warm-up frame (which includes lazy shader compilation).
 - The thesis's SII variant with reordered VPLs (which VPLs share a sub-buffer) was not built: VPL k goes to
   sub-buffer k mod N·M, and because the VPLs come from a stratified CDF in RSM row order, each sub-buffer gets
   VPLs spread over the whole map.
@@ -507,52 +460,56 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out")
     ap.add_argument("--sections")
-    ap.add_argument("--no-full", action="store_true")
+    ap.add_argument("--allow-dirty", action="store_true")
     a = ap.parse_args()
     sections = a.sections.split(",") if a.sections else ALL_SECTIONS
+    if set(sections) - set(ALL_SECTIONS):
+        sys.exit(f"--sections: unknown {sorted(set(sections) - set(ALL_SECTIONS))}; choose from {ALL_SECTIONS}")
     out = a.out or ("-" if a.sections else "docs/measurements/rsm.md")
+    m.refuse_dirty_tree(a.allow_dirty, SCRIPT)
     t0 = time.time()
-    os.makedirs(SCRATCH, exist_ok=True)
-    commit = run(["git", "describe", "--always", "--dirty"]).strip()
-    _, probe = render("probe", "cornell-spot", "direct", size=8)
-    adapter = probe["adapter"]
+    rtgi = m.rtgi_binary()
     cmd = os.environ.get("MEASURE_RSM_ARGV0", "scripts/measure-rsm.py") + "".join(f" {x}" for x in sys.argv[1:])
-    ctx = {"full_spp": 256}
-    refs_t = 0.0
-    if "errors" in sections:
-        ctx["ref_cs"] = reference("cornell-spot-b1", "cornell-spot", 1024, ["max_bounces=1"])
-        refs_t += ctx["ref_cs"][1]
-    if "tworooms" in sections:
-        ctx["ref_tr"] = reference("two-rooms-b1", "two-rooms", 1024, ["max_bounces=1"])
-        refs_t += ctx["ref_tr"][1]
-        if not a.no_full:
-            ctx["ref_full"] = reference("two-rooms-full", "two-rooms", ctx["full_spp"])
-            refs_t += ctx["ref_full"][1]
+    ctx = {"rtgi": rtgi}
+    runs = []
+    if set(sections) & {"errors", "pointlights", "tworooms"}:
+        m.log(SCRIPT, "rtgi bench benches/rsm.toml")
+        ctx["rsm"] = m.Bench(rtgi, "benches/rsm.toml", m.scratch(SCRIPT) / "rsm")
+        runs.append(ctx["rsm"])
+        ctx["refs"] = {r["scene"]: r for r in ctx["rsm"].references()}
+        (full,) = [c for c in ctx["rsm"].results["cells"] if c["scene"] == TR and c["technique"] == "path"]
+        ctx["full_spp"] = int(full["settings"]["spp"])
+    if "timing" in sections:
+        m.log(SCRIPT, "rtgi bench benches/rsm-timing.toml")
+        ctx["timing"] = m.Bench(rtgi, "benches/rsm-timing.toml", m.scratch(SCRIPT) / "rsm-timing", images=False)
+        runs.append(ctx["timing"])
+    commit, adapter = m.same_run(runs)
+    ctx["time_source"] = m.time_source(runs)
     body = []
     for s in sections:
         body += {"errors": section_errors, "pointlights": section_pointlights, "timing": section_timing,
                  "tworooms": section_tworooms}[s](ctx) + [""]
     total = time.time() - t0
-    refs = ["`cornell-spot` with `--set max_bounces=1`"] if "errors" in sections else []
-    if "tworooms" in sections:
-        refs.append("`two-rooms` with `--set max_bounces=1`")
+    suites = join_and([f"`rtgi bench {b.suite}`" for b in runs])
     doc = ["# RSM, interleaved RSM and splatting (issue 5): measurements", "",
-           f"Printed by `{cmd}` at commit `{commit}` on the adapter {adapter['name']} "
-           f"[{adapter.get('driver_info', '')}, {adapter.get('backend', '')}], {os.cpu_count()} CPU cores. The run took {int(total // 60)} min {int(total % 60)} s, "
-           f"of which {refs_t:.0f} s went to `rtgi reference` (about 0 s for a reference already in its cache). Every figure in this document is "
-           "computed by that command from this run's renders, except the thesis's figures quoted in the timing "
-           "section and the tests' tolerances. Reproduce with", "", "```", "cargo build --release -p rtgi-cli",
-           "scripts/measure-rsm.sh            # writes this file; --sections errors,timing prints only those", "```", ""]
-    if refs:
-        doc.append(f"References: `rtgi reference --size 256x256 --spp 1024` of {join_and(refs)}"
-                   + (f", and of `two-rooms` with all bounces at {ctx['full_spp']} spp" if ctx.get("ref_full") else "")
-                   + " (from the reference cache, rendered once when missing).")
+           f"Printed by `{cmd}` at commit `{commit}` on the adapter {m.adapter_text(adapter)}, {os.cpu_count()} CPU "
+           f"cores, from {suites} (the renders are declared in those suite files). The run took {m.duration(total)}, "
+           f"of which {sum(b.reference_seconds for b in runs):.0f} s went to rendering references (0 s for a reference "
+           "already in its cache). Every figure in this document is computed by that command from this run's bench "
+           "results and the images the bench kept, except the thesis's figures quoted in the timing section and the "
+           "tests' tolerances. Reproduce with", "", "```",
+           "scripts/measure-rsm.sh            # builds rtgi, runs the suites, writes this file; --sections errors,timing prints only those",
+           "```", ""]
+    if "rsm" in ctx:
+        doc.append("References (`path`, from the reference cache, rendered once when missing): "
+                   + join_and([m.reference_text(r) for r in ctx["rsm"].references()])
+                   + f". The all-bounce image of `two-rooms` is a `path` cell of {ctx['full_spp']} spp.")
         doc.append("")
     doc += [FIXED_INTRO, ""]
     if "errors" in sections:
         doc.append(f"**The reference without indirect occlusion** is `rsm brute_force=true downsample=1`: every pixel gathers every "
-                   f"texel of the 256² RSM ({256 ** 4 / 1e9:.1f}·10⁹ kernel evaluations at 256², {ctx['bf_seconds']:.0f} s in "
-                   "this run). It is the value all three methods converge to (the gathers, as long as the disc covers the "
+                   f"texel of the 256² RSM ({256 ** 4 / 1e9:.1f}·10⁹ kernel evaluations at 256², {ctx['bf_seconds']:.0f} s per "
+                   "frame in this run). It is the value all three methods converge to (the gathers, as long as the disc covers the "
                    "map, and SII are consistent estimators of it), so *error against it* is the sampling and filtering error, "
                    "and *its own error against the path tracer* is what no sample count removes: mostly the missing indirect "
                    "visibility (plus RSM discretisation and the distance clamp). A path-tracer mode without indirect "
@@ -560,14 +517,14 @@ def main():
         doc.append("")
     doc += body
     if not a.sections:
-        doc += [FIXED_TESTS, "", FIXED_WEAKER, ""]
+        doc += [FIXED_TESTS, "", FIXED_WEAKER.replace("{time_source}", ctx["time_source"]), ""]
     text = "\n".join(doc).rstrip() + "\n"
     if out == "-":
         sys.stdout.write(text)
     else:
         with open(out, "w") as f:
             f.write(text)
-        log(f"wrote {out} in {total:.0f} s")
+        m.log(SCRIPT, f"wrote {out} in {m.duration(total)}")
 
 
 if __name__ == "__main__":

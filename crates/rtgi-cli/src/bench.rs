@@ -24,8 +24,9 @@ pub struct BenchArgs {
     /// Run only cells whose index is I modulo N (a job-array slice); join with `rtgi bench merge`.
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
-    /// Also write each cell's first compared frame as DIR/images/cell-NNNN.exr (linear), named in
-    /// results.json as `image_file`, for comparisons of your own.
+    /// Also write each cell's first compared frame as DIR/images/cell-NNNN.exr (linear) and each
+    /// reference under its cache file name, named in results.json as `image_file`, for comparisons of
+    /// your own.
     #[arg(long)]
     images: bool,
     /// Use the GPU adapter whose name contains NAME.

@@ -18,6 +18,8 @@ scene = "cornell"
 [[scenes]]
 scene = "cornell:animate=box"
 times = [0.5, 1.5]
+sizes = ["16x16"]
+set = { max_bounces = 1 }
 [[techniques]]
 technique = "path"
 sweep = { spp = [1, 2] }
@@ -95,9 +97,11 @@ fn a_suite_runs_whole_and_in_merged_shards_with_the_same_figures() {
     assert_eq!(whole["suite"]["cells"], 6);
     let all = whole["cells"].as_array().expect("cells");
     assert_eq!(all.len(), 6);
-    // The animated scene: each measured frame at its time, against the reference of that pose.
+    // The animated scene (at its own size, 16²): each measured frame at its time, against the reference
+    // of that pose.
     for c in &all[4..] {
         assert_eq!(c["scene"], "cornell:animate=box");
+        assert_eq!((c["width"].as_u64(), c["height"].as_u64()), (Some(16), Some(16)), "{c}");
         let times: Vec<f64> = c["frames"]
             .as_array()
             .expect("frames")
@@ -120,13 +124,31 @@ fn a_suite_runs_whole_and_in_merged_shards_with_the_same_figures() {
             ("cornell:animate=box".into(), 1.5)
         ]
     );
+    // Each reference at its scene's size, with its scene's `path` settings (the suite's: none).
+    let shapes: Vec<(u64, String)> = whole["references"]
+        .as_array()
+        .expect("references")
+        .iter()
+        .map(|r| (r["width"].as_u64().expect("width"), r["settings"].to_string()))
+        .collect();
+    let one_bounce = r#"{"max_bounces":"1"}"#.to_string();
+    assert_eq!(shapes, vec![(32, "{}".into()), (16, one_bounce.clone()), (16, one_bounce)]);
     let cells = &all[..4];
-    // --images: each cell's first compared frame, readable and of the cell's size.
-    for c in all {
+    // --images: each cell's first compared frame and each reference, readable and of their size.
+    let files = all.iter().chain(whole["references"].as_array().expect("references"));
+    for c in files {
         let name = c["image_file"].as_str().expect("image_file");
-        let image = rtgi::image::HdrImage::read(d.join("whole/images").join(name)).expect("cell image");
-        assert_eq!((image.width, image.height), (32, 32), "{name}");
+        let image = rtgi::image::HdrImage::read(d.join("whole/images").join(name)).expect("image");
+        let size = (c["width"].as_u64().expect("width"), c["height"].as_u64().expect("height"));
+        assert_eq!((u64::from(image.width), u64::from(image.height)), size, "{name}");
     }
+    // A reference kept is the cached one, bit for bit.
+    let r = &whole["references"][0];
+    let kept =
+        std::fs::read(d.join("whole/images").join(r["image_file"].as_str().expect("name"))).expect("kept");
+    let cached =
+        std::fs::read(d.join("cache").join(r["image_file"].as_str().expect("name"))).expect("cached");
+    assert!(kept == cached, "the kept reference differs from the cache's");
     for c in cells {
         assert!(c["failure"].is_null(), "{c}");
         assert!(c["frame_ms"].as_f64().expect("frame_ms") > 0.0, "{c}");

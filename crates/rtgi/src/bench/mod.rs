@@ -73,6 +73,9 @@ pub struct ReferenceResult {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
+    /// Its `path` parameters besides `spp` (the scene's or the suite's `set`).
+    #[serde(default)]
+    pub settings: BTreeMap<String, String>,
     /// Cache key: the file is `<scene>-<W>x<H>-<spp>spp-<key>.exr` in the reference cache.
     pub key: String,
     /// Whether the reference came from the cache.
@@ -80,6 +83,10 @@ pub struct ReferenceResult {
     /// Wall time to render it (0 when cached).
     pub render_ms: f64,
     pub thumbnail_png: String,
+    /// With [`run`]'s `images` folder: the file name there of the reference (linear EXR, named as in
+    /// the cache), for comparisons the bench does not make itself.
+    #[serde(default)]
+    pub image_file: Option<String>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -208,13 +215,15 @@ fn timings(stats: &RenderStats, frames: u32) -> (Option<TimeSummary>, Option<Tim
     (gpu, wall, passes)
 }
 
-/// References of one run, rendered once per (scene, time, size) and shared by every cell.
-struct References {
+/// References of one run, rendered once per (scene, time, size) and shared by every cell; with
+/// `folder`, each is also written there.
+struct References<'a> {
     images: HashMap<(usize, u32, u32, u32), HdrImage>,
     results: Vec<ReferenceResult>,
+    folder: Option<&'a Path>,
 }
 
-impl References {
+impl References<'_> {
     #[allow(clippy::too_many_arguments)]
     fn get(
         &mut self,
@@ -233,22 +242,38 @@ impl References {
             progress(Progress::Reference { scene: &s.text, time, width, height, spp: s.reference_spp });
             // Without a `seed` the reference uses its own (REFERENCE_SEED), so a `path` cell never
             // shares random numbers with the reference it is compared with.
-            let settings = suite.reference_settings.clone();
+            let settings = s.reference_settings.clone();
             let request = ReferenceRequest { width, height, spp: s.reference_spp, settings };
             let start = Instant::now();
             let posed = scene.posed(time);
             let r = reference(ctx, &posed, &request, &mut |_, _| {})?;
+            let render_ms = if r.cached { 0.0 } else { start.elapsed().as_secs_f64() * 1e3 };
             metrics::check_finite(&r.image, &format!("the reference of {}", s.text)).map_err(metric_error)?;
+            let image_file = match self.folder {
+                None => None,
+                Some(dir) => {
+                    let name =
+                        r.path.file_name().map(|n| n.to_string_lossy().into_owned()).ok_or_else(|| {
+                            RenderError::InvalidSettings(format!("{}: no file name", r.path.display()))
+                        })?;
+                    r.image
+                        .write_exr(dir.join(&name))
+                        .map_err(|e| RenderError::InvalidSettings(e.to_string()))?;
+                    Some(name)
+                }
+            };
             self.results.push(ReferenceResult {
                 scene: s.text.clone(),
                 time,
                 width,
                 height,
                 spp: s.reference_spp,
+                settings: request.settings.into_iter().collect(),
                 key: r.key.clone(),
                 cached: r.cached,
-                render_ms: if r.cached { 0.0 } else { start.elapsed().as_secs_f64() * 1e3 },
+                render_ms,
                 thumbnail_png: tone_mapped_thumbnail(&r.image)?,
+                image_file,
             });
             self.images.insert(key, r.image);
         }
@@ -264,7 +289,7 @@ fn run_cell(
     cell: &CellSpec,
     scene: &Scene,
     images: Option<&Path>,
-    references: &mut References,
+    references: &mut References<'_>,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CellResult, RenderError> {
     let s = &suite.scenes[cell.scene];
@@ -387,7 +412,7 @@ fn run_cell(
 /// Runs the cells of `shard` on `ctx`. A cell that fails (the technique cannot run on that scene, a
 /// non-finite pixel, ...) is kept with its `failure`; a reference or scene that cannot be had stops
 /// the run. With `images`, each cell's first compared frame is also written there as
-/// `cell-NNNN.exr` (the folder must exist).
+/// `cell-NNNN.exr`, and each reference under its cache file name (the folder must exist).
 pub fn run(
     ctx: &GpuContext,
     suite: &Suite,
@@ -398,7 +423,7 @@ pub fn run(
 ) -> Result<BenchResults, RenderError> {
     let cells: Vec<&CellSpec> = suite.cells.iter().filter(|c| shard.contains(c.index)).collect();
     let mut scenes: HashMap<usize, Scene> = HashMap::new();
-    let mut references = References { images: HashMap::new(), results: Vec::new() };
+    let mut references = References { images: HashMap::new(), results: Vec::new(), folder: images };
     // References first: rendering one between a cell's frames would disturb its timing (on lavapipe
     // its timestamps came out 3x too short), and the cells' wall times should not include them.
     for cell in &cells {

@@ -441,16 +441,17 @@ img {{ image-rendering: pixelated; vertical-align: middle; }}
          <b>path at equal time</b> is the path tracer's FLIP at the cell's time, interpolated in log time along \
          the path cells' front. Highlighted rows are on the Pareto front.</p>\n",
     );
-    out.push_str("<h2>References</h2><table><tr><th class=\"l\">scene</th><th>time</th><th>size</th><th>spp</th><th class=\"l\">key</th><th>render ms</th><th>image</th></tr>\n");
+    out.push_str("<h2>References</h2><table><tr><th class=\"l\">scene</th><th>time</th><th>size</th><th>spp</th><th class=\"l\">path settings</th><th class=\"l\">key</th><th>render ms</th><th>image</th></tr>\n");
     for r in &results.references {
         let _ = writeln!(
             out,
-            r#"<tr><td class="l">{}</td><td>{}</td><td>{}×{}</td><td>{}</td><td class="l">{}</td><td>{}</td><td><img src="data:image/png;base64,{}"></td></tr>"#,
+            r#"<tr><td class="l">{}</td><td>{}</td><td>{}×{}</td><td>{}</td><td class="l">{}</td><td class="l">{}</td><td>{}</td><td><img src="data:image/png;base64,{}"></td></tr>"#,
             escape(&r.scene),
             r.time,
             r.width,
             r.height,
             r.spp,
+            escape(&r.settings.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")),
             r.key,
             if r.cached { "cached".to_string() } else { number(r.render_ms) },
             r.thumbnail_png

@@ -43,6 +43,10 @@ struct ReferenceFile {
 struct SceneFile {
     scene: String,
     spp: Option<u32>,
+    /// The scene's reference `path` parameters, instead of `[reference]`'s `set`.
+    set: Option<BTreeMap<String, toml::Value>>,
+    /// The scene's sizes, instead of the suite's.
+    sizes: Option<Vec<String>>,
     #[serde(default)]
     times: Vec<f32>,
 }
@@ -74,8 +78,6 @@ pub struct Suite {
     /// How many of the measured frames are read back and compared with the reference.
     pub error_frames: u32,
     pub reference_spp: u32,
-    /// `path` parameters of every reference.
-    pub reference_settings: Vec<(String, String)>,
     pub scenes: Vec<SuiteScene>,
     pub cells: Vec<CellSpec>,
 }
@@ -86,6 +88,10 @@ pub struct SuiteScene {
     pub text: String,
     pub spec: SceneSpec,
     pub reference_spp: u32,
+    /// `path` parameters of the scene's references: its own `set`, else the suite's.
+    pub reference_settings: Vec<(String, String)>,
+    /// The sizes it is rendered at: its own `sizes`, else the suite's.
+    pub sizes: Vec<(u32, u32)>,
     /// Scene times of the measured frames, cycled; empty for a still scene (time 0).
     pub times: Vec<f32>,
 }
@@ -203,13 +209,15 @@ impl Suite {
         if file.reference.spp == 0 {
             return Err("reference.spp must be at least 1".into());
         }
-        let reference_settings = settings(&file.reference.set)?;
+        let reference_settings = settings(&file.reference.set).map_err(|e| format!("reference: {e}"))?;
         crate::techniques::resolve("path", &reference_settings).map_err(|e| format!("reference: {e}"))?;
-        let sizes = file
-            .sizes
-            .iter()
-            .map(|s| parse_size(s).map_err(|e| format!("sizes: {e}")))
-            .collect::<Result<Vec<_>, _>>()?;
+        let parse_sizes = |sizes: &[String]| {
+            sizes
+                .iter()
+                .map(|s| parse_size(s).map_err(|e| format!("sizes: {e}")))
+                .collect::<Result<Vec<_>, _>>()
+        };
+        let suite_sizes = parse_sizes(&file.sizes)?;
         let base = path.parent().unwrap_or(Path::new("."));
         let mut scenes = Vec::new();
         for s in &file.scenes {
@@ -226,10 +234,28 @@ impl Suite {
             if s.times.iter().any(|t| !t.is_finite()) {
                 return Err(format!("scene '{}': times must be finite", s.scene));
             }
+            let reference_settings = match &s.set {
+                None => reference_settings.clone(),
+                Some(set) => {
+                    let own = settings(set).map_err(|e| format!("scene '{}': set: {e}", s.scene))?;
+                    crate::techniques::resolve("path", &own)
+                        .map_err(|e| format!("scene '{}': set (its reference): {e}", s.scene))?;
+                    own
+                }
+            };
+            let sizes = match &s.sizes {
+                None => suite_sizes.clone(),
+                Some(own) if own.is_empty() => {
+                    return Err(format!("scene '{}': sizes needs at least one size", s.scene));
+                }
+                Some(own) => parse_sizes(own).map_err(|e| format!("scene '{}': {e}", s.scene))?,
+            };
             scenes.push(SuiteScene {
                 text: s.scene.clone(),
                 spec,
                 reference_spp: s.spp.unwrap_or(file.reference.spp),
+                reference_settings,
+                sizes,
                 times: s.times.clone(),
             });
         }
@@ -272,9 +298,21 @@ impl Suite {
         if let Some(w) = series_names.windows(2).find(|w| w[0] == w[1]) {
             return Err(format!("two technique entries are labelled '{}'; give one a `label`", w[0]));
         }
+        // The suite's sizes, then the sizes only some scenes have, in the order written.
+        let mut sizes = suite_sizes;
+        for s in &scenes {
+            for size in &s.sizes {
+                if !sizes.contains(size) {
+                    sizes.push(*size);
+                }
+            }
+        }
         let mut cells = Vec::new();
         for &(width, height) in &sizes {
-            for scene in 0..scenes.len() {
+            for (scene, suite_scene) in scenes.iter().enumerate() {
+                if !suite_scene.sizes.contains(&(width, height)) {
+                    continue;
+                }
                 for (technique, series, set, sweeps, on, warmup) in &entries {
                     if !on.contains(&scene) {
                         continue;
@@ -307,7 +345,6 @@ impl Suite {
             frames: file.frames,
             error_frames,
             reference_spp: file.reference.spp,
-            reference_settings,
             scenes,
             cells,
         })
@@ -348,7 +385,9 @@ warmup = 5
         // Per size: cornell 3 path + 4 igi cells, cornell-spot 3 path cells.
         assert_eq!(s.cells.len(), 2 * (3 + 4 + 3));
         assert_eq!(s.error_frames, 3);
-        assert_eq!(s.reference_settings, vec![("max_bounces".to_string(), "1".to_string())]);
+        let one_bounce = vec![("max_bounces".to_string(), "1".to_string())];
+        assert!(s.scenes.iter().all(|scene| scene.reference_settings == one_bounce));
+        assert!(s.scenes.iter().all(|scene| scene.sizes == vec![(32, 32), (16, 8)]));
         let c = &s.cells[4];
         assert_eq!((c.scene, c.technique.as_str(), c.series.as_str()), (0, "igi", "igi raster"));
         // Sweep keys in name order (interleave before vpls), values as written.
@@ -363,20 +402,72 @@ warmup = 5
         assert_eq!(s.scenes[1].times, vec![0.0, 0.5]);
     }
 
-    /// The suites the repository ships (benches/*.toml) are valid.
+    /// A scene's own `sizes` and reference `set` replace the suite's for that scene alone; sizes no
+    /// other scene has come after the suite's in the matrix.
+    #[test]
+    fn scenes_may_have_their_own_sizes_and_reference_settings() {
+        let text = SUITE.replace(
+            "times = [0.0, 0.5]\n",
+            "times = [0.0, 0.5]\nsizes = [\"8x8\", \"16x8\"]\nset = { max_bounces = 2, seed = 7 }\n",
+        );
+        assert_ne!(text, SUITE);
+        let s = Suite::parse(&text, Path::new("t.toml")).expect("suite");
+        assert_eq!(s.scenes[0].sizes, vec![(32, 32), (16, 8)]);
+        assert_eq!(s.scenes[1].sizes, vec![(8, 8), (16, 8)]);
+        assert_eq!(s.scenes[0].reference_settings, vec![("max_bounces".to_string(), "1".to_string())]);
+        assert_eq!(
+            s.scenes[1].reference_settings,
+            vec![("max_bounces".to_string(), "2".to_string()), ("seed".to_string(), "7".to_string())]
+        );
+        // 32x32: cornell (3 path + 4 igi); 16x8: cornell and cornell-spot (3 path); 8x8: cornell-spot.
+        let shape: Vec<(u32, usize, usize)> = [(32, 0), (16, 0), (16, 1), (8, 1)]
+            .iter()
+            .map(|&(w, scene)| {
+                let n = s.cells.iter().filter(|c| c.width == w && c.scene == scene).count();
+                (w, scene, n)
+            })
+            .collect();
+        assert_eq!(shape, vec![(32, 0, 7), (16, 0, 7), (16, 1, 3), (8, 1, 3)]);
+        assert_eq!(s.cells.len(), 20);
+        let order: Vec<(u32, usize)> = s.cells.iter().map(|c| (c.width, c.scene)).collect();
+        let mut sorted = order.clone();
+        sorted.sort_by_key(|&(w, scene)| ([32, 16, 8].iter().position(|&x| x == w), scene));
+        assert_eq!(order, sorted, "size (suite's first) → scene → entry");
+        // An empty `set` is a full-GI reference for that scene.
+        let full = SUITE.replace("times = [0.0, 0.5]\n", "times = [0.0, 0.5]\nset = {}\n");
+        let s = Suite::parse(&full, Path::new("t.toml")).expect("suite");
+        assert!(s.scenes[1].reference_settings.is_empty());
+    }
+
+    /// The suites the repository ships (benches/*.toml) are valid: the bench's own and those the
+    /// measurement scripts run.
     #[test]
     fn the_committed_suites_parse() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches");
-        let mut count = 0;
+        let mut names = Vec::new();
         for entry in std::fs::read_dir(&dir).expect("benches/") {
             let path = entry.expect("entry").path();
             if path.extension().is_some_and(|e| e == "toml") {
                 let suite = Suite::load(&path).unwrap_or_else(|e| panic!("{e}"));
                 assert!(!suite.cells.is_empty(), "{}", path.display());
-                count += 1;
+                names.push(path.file_name().expect("name").to_string_lossy().into_owned());
             }
         }
-        assert!(count >= 2, "benches/quick.toml and benches/gpu.toml");
+        names.sort();
+        assert_eq!(names, ["gpu.toml", "igi.toml", "quick.toml", "rsm-timing.toml", "rsm.toml"]);
+        // The scripts' suites use the per-scene overrides: bumpy-glossy at its own size, with the same
+        // full-GI reference in both (one cached file), while rsm's other references are one-bounce.
+        let load = |name: &str| Suite::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
+        let (igi, rsm) = (load("igi.toml"), load("rsm.toml"));
+        let bumpy =
+            |s: &Suite| s.scenes.iter().find(|x| x.text == "bumpy-glossy").cloned().expect("bumpy-glossy");
+        let (a, b) = (bumpy(&igi), bumpy(&rsm));
+        assert_eq!(
+            (a.sizes, a.reference_spp, a.reference_settings),
+            (b.sizes, b.reference_spp, b.reference_settings)
+        );
+        assert_eq!(rsm.scenes[0].reference_settings, vec![("max_bounces".to_string(), "1".to_string())]);
+        assert!(igi.cells.iter().all(|c| (c.width == 128) == (igi.scenes[c.scene].text == "bumpy-glossy")));
     }
 
     #[test]
@@ -404,6 +495,19 @@ warmup = 5
             (("sizes = [", "colour = 1\nsizes = ["), "colour"),
             (("vpls = [64, 256]", "vpls = []"), "no values"),
             (("warmup = 5", "warmup = 0"), "warmup"),
+            (("times = [0.0, 0.5]", "times = [0.0, 0.5]\nsizes = []"), "'cornell-spot:animate=spot': sizes"),
+            (
+                ("times = [0.0, 0.5]", "times = [0.0, 0.5]\nsizes = [\"8x\"]"),
+                "'cornell-spot:animate=spot': sizes",
+            ),
+            (
+                ("times = [0.0, 0.5]", "times = [0.0, 0.5]\nset = { bounces = 1 }"),
+                "'cornell-spot:animate=spot': set",
+            ),
+            (
+                ("times = [0.0, 0.5]", "times = [0.0, 0.5]\nset = { max_bounces = [1] }"),
+                "'cornell-spot:animate=spot': set",
+            ),
         ] {
             let text = SUITE.replacen(edit.0, edit.1, 1);
             assert_ne!(text, SUITE, "{edit:?} did not apply");

@@ -1,0 +1,184 @@
+"""Shared by the measurement scripts (measure-igi.py, measure-rsm.py): they declare their renders as bench
+suites in benches/, run `rtgi bench SUITE --out DIR --images`, and print their documents from results.json
+and, for comparisons the bench does not make (one cell against another, region luminance, error maps),
+`rtgi compare` / `rtgi tonemap` on the images it kept. Python 3 standard library only.
+
+Environment: RTGI (the rtgi binary; default: built with `cargo build --release -p rtgi-cli` into
+$CARGO_TARGET_DIR or target/), SCRATCH (where the bench runs write, default target/measure/<script>),
+NODEVICE_SELECT (set to 1 unless given). References come from the reference cache ($RTGI_CACHE_DIR or the
+default cache; see the README), rendered once when missing.
+"""
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+os.chdir(ROOT)
+os.environ.setdefault("NODEVICE_SELECT", "1")
+
+
+def log(script, msg):
+    print(f"[{script} {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
+
+
+def run(cmd):
+    """Runs `cmd`, returns its stdout; on failure exits with the command and its output."""
+    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"failed: {' '.join(map(str, cmd))}\n{r.stdout}\n{r.stderr}")
+    return r.stdout
+
+
+def dirty_files():
+    """Tracked files with uncommitted changes: figures printed from such a tree name no commit."""
+    return run(["git", "status", "--porcelain", "--untracked-files=no"]).strip()
+
+
+def refuse_dirty_tree(allow, script):
+    """Exits unless the tree is clean or `allow` (then the documents name the commit `-dirty`, as
+    `git describe --dirty` in results.json does)."""
+    dirty = dirty_files()
+    if dirty and not allow:
+        sys.exit(f"{script}: the tree has uncommitted changes, so the figures would name no commit; "
+                 f"commit them or pass --allow-dirty:\n{dirty}")
+    if dirty:
+        log(script, "warning: uncommitted changes; the document will name the commit '-dirty'")
+
+
+def rtgi_binary():
+    """$RTGI, else the release build (built first, a no-op when up to date)."""
+    if os.environ.get("RTGI"):
+        return Path(os.environ["RTGI"])
+    run(["cargo", "build", "--release", "-p", "rtgi-cli"])
+    return Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "release" / "rtgi"
+
+
+def scratch(script):
+    path = Path(os.environ.get("SCRATCH", ROOT / "target" / "measure" / script))
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _same(a, b):
+    """Parameter values as the bench writes them (text) against values given in Python."""
+    if isinstance(b, bool):
+        b = "true" if b else "false"
+    try:
+        return float(a) == float(b)
+    except (TypeError, ValueError):
+        return str(a) == str(b)
+
+
+class Bench:
+    """One `rtgi bench` run: its results.json and the images it kept."""
+
+    def __init__(self, rtgi, suite, out, images=True):
+        self.rtgi, self.suite, self.out = rtgi, suite, Path(out)
+        started = time.time()
+        cmd = [rtgi, "bench", suite, "--out", self.out] + (["--images"] if images else [])
+        r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
+        self.seconds = time.time() - started
+        if not (self.out / "results.json").exists():
+            sys.exit(f"failed: {' '.join(map(str, cmd))}\n{r.stdout}\n{r.stderr}")
+        self.results = json.loads((self.out / "results.json").read_text())
+        failed = [c for c in self.results["cells"] if c["failure"]]
+        if r.returncode != 0 or failed:
+            sys.exit(f"{suite}: {len(failed)} cells failed (first: {failed[0]['failure'] if failed else '?'})\n"
+                     f"{r.stderr}")
+
+    @property
+    def commit(self):
+        return self.results["rtgi"]["commit"]
+
+    @property
+    def adapter(self):
+        (a,) = self.results["adapters"]
+        return a
+
+    @property
+    def reference_seconds(self):
+        return sum(r["render_ms"] for r in self.results["references"]) / 1000
+
+    def cell(self, scene, technique, **settings):
+        """The cell of `technique` on `scene` whose parameters are exactly `settings`."""
+        found = [c for c in self.results["cells"]
+                 if c["scene"] == scene and c["technique"] == technique and c["settings"].keys() == settings.keys()
+                 and all(_same(c["settings"][k], v) for k, v in settings.items())]
+        if len(found) != 1:
+            sys.exit(f"{self.suite}: {len(found)} cells of {technique} {settings} on {scene}, expected one")
+        return found[0]
+
+    def image(self, cell):
+        """The kept EXR of a cell (its first compared frame)."""
+        return self.out / "images" / cell["image_file"]
+
+    def reference(self, scene):
+        """The kept EXR of the scene's reference (a still scene: one reference)."""
+        (r,) = [r for r in self.results["references"] if r["scene"] == scene]
+        return self.out / "images" / r["image_file"]
+
+    def references(self):
+        return self.results["references"]
+
+
+def same_run(benches):
+    """Commit and adapter of runs that must share both (one document's header)."""
+    commits = {b.commit for b in benches}
+    adapters = {json.dumps(b.adapter, sort_keys=True) for b in benches}
+    if len(commits) != 1 or len(adapters) != 1:
+        sys.exit(f"the bench runs disagree on commit {commits} or adapter {adapters}")
+    return benches[0].commit, benches[0].adapter
+
+
+def adapter_text(a):
+    return f"{a['name']} [{a.get('driver_info', '')}, {a.get('backend', '')}]"
+
+
+def compare(rtgi, ref, test, error_map=None, region=None):
+    cmd = [rtgi, "compare", ref, test, "--json"]
+    if error_map:
+        cmd += ["--error-map", error_map]
+    if region:
+        cmd += ["--region", region]
+    return json.loads(run(cmd))
+
+
+def tonemap(rtgi, src, dst):
+    run([rtgi, "tonemap", src, dst])
+
+
+def pass_ms(cell, name):
+    """A pass's time per frame in a cell (None when the cell has no such pass)."""
+    for p in cell["passes"]:
+        if p["name"] == name:
+            return p["ms_per_frame"]
+    return None
+
+
+def time_source(benches):
+    """How the runs timed their frames, in words."""
+    sources = {c["time_source"] for b in benches for c in b.results["cells"]}
+    if sources == {"gpu"}:
+        return "GPU timestamps"
+    if sources == {"wall"}:
+        return "wall times"
+    return "GPU timestamps where reliable, else wall times"
+
+
+def reference_text(r):
+    """A results.json reference in words: scene, size, samples, `path` settings."""
+    settings = " ".join(f"{k}={v}" for k, v in sorted(r["settings"].items()))
+    return (f"`{r['scene']}` {r['width']}×{r['height']} at {r['spp']} spp"
+            + (f" with `{settings}`" if settings else " with all bounces"))
+
+
+def duration(seconds):
+    return f"{int(seconds // 60)} min {int(seconds % 60)} s"
+
+
+def join_and(items):
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
