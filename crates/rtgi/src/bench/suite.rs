@@ -454,10 +454,13 @@ warmup = 5
             }
         }
         names.sort();
-        assert_eq!(names, ["gpu.toml", "igi.toml", "quick.toml", "rsm-timing.toml", "rsm.toml"]);
+        assert_eq!(names, ["ddgi.toml", "gpu.toml", "igi.toml", "quick.toml", "rsm-timing.toml", "rsm.toml"]);
         // The scripts' suites use the per-scene overrides: bumpy-glossy at its own size, with the same
         // full-GI reference in both (one cached file), while rsm's other references are one-bounce.
         let load = |name: &str| Suite::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
+        // DDGI's cells converge their probes first; the other techniques of its suite do not need to.
+        let ddgi = load("ddgi.toml");
+        assert!(ddgi.cells.iter().all(|c| (c.warmup == 100) == (c.technique == "ddgi")));
         let (igi, rsm) = (load("igi.toml"), load("rsm.toml"));
         let bumpy =
             |s: &Suite| s.scenes.iter().find(|x| x.text == "bumpy-glossy").cloned().expect("bumpy-glossy");
