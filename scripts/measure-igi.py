@@ -29,7 +29,7 @@ def main():
     ap.add_argument("--allow-dirty", action="store_true", help="measure a tree with uncommitted changes")
     a = ap.parse_args()
     m.refuse_dirty_tree(a.allow_dirty, SCRIPT)
-    t0 = time.time()
+    t0, load0 = time.time(), m.load_average()
     rtgi = m.rtgi_binary()
     IMAGES.mkdir(parents=True, exist_ok=True)
     m.log(SCRIPT, f"rtgi bench {SUITE}")
@@ -49,14 +49,14 @@ def main():
     def row(c):
         return f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f}"
 
-    header = lambda seconds: ["# igi and igi-sh: measurements", "",
+    header = lambda seconds, load: ["# igi and igi-sh: measurements", "",
              f"Printed by `python3 scripts/measure-igi.py` from `rtgi bench {SUITE}` (the renders are declared "
              f"there) at commit `{commit}` on the adapter {m.adapter_text(adapter)}. cornell at {size(CORNELL)}, "
              f"bumpy-glossy at {size(BUMPY)}; every cell renders one warm-up frame and {frames} measured frames, "
              "each afresh (fully dynamic, nothing carried between frames); errors are those of the first "
              f"measured frame. References (`path`, from the reference cache or rendered once): {ref_text}. The run took "
              f"{m.duration(seconds)}, of which {b.reference_seconds:.0f} s went to rendering references "
-             "(0 s when cached).", "",
+             f"(0 s when cached). {load}", "",
              "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is "
              "dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are "
              f"{m.time_source([b])} around every pass (one command encoder per frame) on lavapipe, mean of the measured frames (the warm-up frame, which includes "
@@ -141,7 +141,7 @@ def main():
         lines.append(f"| {key.replace('_bytes_per_pixel', '')} | {costs['igi']['counters'][key]:.0f} | "
                      f"{costs['igi-sh']['counters'][key]:.0f} |")
     lines.append("")
-    lines = header(time.time() - t0) + lines
+    lines = header(time.time() - t0, m.load_text(load0, m.load_average())) + lines
     DOC.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     m.log(SCRIPT, f"wrote {DOC.relative_to(m.ROOT)} in {m.duration(time.time() - t0)}")

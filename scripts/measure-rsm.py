@@ -467,7 +467,7 @@ def main():
         sys.exit(f"--sections: unknown {sorted(set(sections) - set(ALL_SECTIONS))}; choose from {ALL_SECTIONS}")
     out = a.out or ("-" if a.sections else "docs/measurements/rsm.md")
     m.refuse_dirty_tree(a.allow_dirty, SCRIPT)
-    t0 = time.time()
+    t0, load0 = time.time(), m.load_average()
     rtgi = m.rtgi_binary()
     cmd = os.environ.get("MEASURE_RSM_ARGV0", "scripts/measure-rsm.py") + "".join(f" {x}" for x in sys.argv[1:])
     ctx = {"rtgi": rtgi}
@@ -495,7 +495,7 @@ def main():
            f"Printed by `{cmd}` at commit `{commit}` on the adapter {m.adapter_text(adapter)}, {os.cpu_count()} CPU "
            f"cores, from {suites} (the renders are declared in those suite files). The run took {m.duration(total)}, "
            f"of which {sum(b.reference_seconds for b in runs):.0f} s went to rendering references (0 s for a reference "
-           "already in its cache). Every figure in this document is computed by that command from this run's bench "
+           f"already in its cache). {m.load_text(load0, m.load_average())} Every figure in this document is computed by that command from this run's bench "
            "results and the images the bench kept, except the thesis's figures quoted in the timing section and the "
            "tests' tolerances. Reproduce with", "", "```",
            "scripts/measure-rsm.sh            # builds rtgi, runs the suites, writes this file; --sections errors,timing prints only those",

@@ -175,6 +175,24 @@ def reference_text(r):
             + (f" with `{settings}`" if settings else " with all bounces"))
 
 
+def load_average():
+    """The 1-minute load average (None where the system does not report one)."""
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return None
+
+
+def load_text(start, end):
+    """The machine's load during a run, in words: figures the timings depend on."""
+    if start is None or end is None:
+        return ""
+    cores = os.cpu_count()
+    return (f"The 1-minute load average was {start:.1f} when the run started and {end:.1f} when it ended, on "
+            f"{cores} CPU cores" + (": other processes shared the CPU, so absolute times are inflated and noisier "
+                                    "than on an idle machine." if max(start, end) > cores + 0.5 else "."))
+
+
 def duration(seconds):
     return f"{int(seconds // 60)} min {int(seconds % 60)} s"
 
