@@ -57,7 +57,7 @@ def main():
              f"(the renders are declared there) at commit `{commit}` on the adapter {m.adapter_text(adapter)}. "
              f"cornell at {size(CORNELL)}, bumpy-glossy at {size(BUMPY)}; every cell renders one warm-up frame, "
              f"then one measured frame for the errors ({SUITE}) or {frames} for the costs ({COST_SUITE}), each "
-             "afresh (fully dynamic, nothing carried between frames). References (`path`, from the reference cache or rendered once): {ref_text}. The run took "
+             f"afresh (fully dynamic, nothing carried between frames). References (`path`, from the reference cache or rendered once): {ref_text}. The run took "
              f"{m.duration(seconds)}, of which {b.reference_seconds + cost.reference_seconds:.0f} s went to rendering references "
              f"(0 s when cached). {load}", "",
              "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is "
