@@ -2,10 +2,11 @@
 """Measurements of `igi` and `igi-sh` (issue 4): writes docs/measurements/igi.md and its images in
 docs/measurements/igi/.
 
-Runs `rtgi bench benches/igi.toml --out $SCRATCH/bench --images` (the renders are declared there) and prints
-every table from its results.json (errors, per-pass times, counters); the comparison of igi with igi-sh, the
-tone-mapped bumpy-glossy images and their FLIP error maps come from `rtgi compare` / `rtgi tonemap` on the
-images the bench kept. Refuses a tree with uncommitted changes (the document names the commit) unless
+Runs `rtgi bench benches/igi.toml --out $SCRATCH/bench --images` (errors, one frame per cell) and
+`rtgi bench benches/igi-cost.toml --out $SCRATCH/cost` (per-pass times and counters, eight frames per cell);
+the renders are declared there. Every table comes from their results.json; the comparison of igi with igi-sh,
+the tone-mapped bumpy-glossy images and their FLIP error maps come from `rtgi compare` / `rtgi tonemap` on
+the images the bench kept. Refuses a tree with uncommitted changes (the document names the commit) unless
 --allow-dirty. Environment: see scripts/measure_common.py.
 
     python3 scripts/measure-igi.py            # everything (about 5 min on 2 CPU cores with lavapipe, references cached)
@@ -20,7 +21,7 @@ import measure_common as m  # noqa: E402
 SCRIPT = "measure-igi"
 DOC = m.ROOT / "docs/measurements/igi.md"
 IMAGES = m.ROOT / "docs/measurements/igi"
-SUITE = "benches/igi.toml"
+SUITE, COST_SUITE = "benches/igi.toml", "benches/igi-cost.toml"
 CORNELL, BUMPY = "cornell", "bumpy-glossy"
 
 
@@ -34,14 +35,16 @@ def main():
     IMAGES.mkdir(parents=True, exist_ok=True)
     m.log(SCRIPT, f"rtgi bench {SUITE}")
     b = m.Bench(rtgi, SUITE, m.scratch(SCRIPT) / "bench")
-    commit, adapter = m.same_run([b])
+    m.log(SCRIPT, f"rtgi bench {COST_SUITE}")
+    cost = m.Bench(rtgi, COST_SUITE, m.scratch(SCRIPT) / "cost", images=False)
+    commit, adapter = m.same_run([b, cost])
 
     def size(scene):
         c = next(c for c in b.results["cells"] if c["scene"] == scene)
         return f"{c['width']}x{c['height']}"
 
     ref_text = m.join_and([m.reference_text(r) for r in b.references()])
-    frames = b.results["suite"]["frames"]
+    frames = cost.results["suite"]["frames"]
 
     def igi(scene=CORNELL, technique="igi", **settings):
         return b.cell(scene, technique, **settings)
@@ -50,16 +53,16 @@ def main():
         return f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f}"
 
     header = lambda seconds, load: ["# igi and igi-sh: measurements", "",
-             f"Printed by `python3 scripts/measure-igi.py` from `rtgi bench {SUITE}` (the renders are declared "
-             f"there) at commit `{commit}` on the adapter {m.adapter_text(adapter)}. cornell at {size(CORNELL)}, "
-             f"bumpy-glossy at {size(BUMPY)}; every cell renders one warm-up frame and {frames} measured frames, "
-             "each afresh (fully dynamic, nothing carried between frames); errors are those of the first "
-             f"measured frame. References (`path`, from the reference cache or rendered once): {ref_text}. The run took "
-             f"{m.duration(seconds)}, of which {b.reference_seconds:.0f} s went to rendering references "
+             f"Printed by `python3 scripts/measure-igi.py` from `rtgi bench {SUITE}` and `rtgi bench {COST_SUITE}` "
+             f"(the renders are declared there) at commit `{commit}` on the adapter {m.adapter_text(adapter)}. "
+             f"cornell at {size(CORNELL)}, bumpy-glossy at {size(BUMPY)}; every cell renders one warm-up frame, "
+             f"then one measured frame for the errors ({SUITE}) or {frames} for the costs ({COST_SUITE}), each "
+             f"afresh (fully dynamic, nothing carried between frames). References (`path`, from the reference cache or rendered once): {ref_text}. The run took "
+             f"{m.duration(seconds)}, of which {b.reference_seconds + cost.reference_seconds:.0f} s went to rendering references "
              f"(0 s when cached). {load}", "",
              "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is "
              "dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are "
-             f"{m.time_source([b])} around every pass (one command encoder per frame) on lavapipe, mean of the measured frames (the warm-up frame, which includes "
+             f"{m.time_source([cost])} around every pass (one command encoder per frame) on lavapipe, mean of the measured frames (the warm-up frame, which includes "
              "lazy shader compilation, excluded); compare passes with each other, not with GPU figures. The "
              "closing note of issue 4 and the README read these tables.", ""]
 
@@ -119,7 +122,7 @@ def main():
     names = ["gbuffer", "vpl generation", "visibility + accumulation", "discontinuity filter", "shading"]
     summary = []
     for vpls in (256, 1024, 4096):
-        costs = {t: igi(technique=t, direct="vpl", vpls=vpls) for t in ("igi", "igi-sh")}
+        costs = {t: cost.cell(CORNELL, t, direct="vpl", vpls=vpls) for t in ("igi", "igi-sh")}
         ms = lambda t, n: m.pass_ms(costs[t], n) or 0.0
         for n in names:
             lines.append(f"| {vpls} | {n} | {ms('igi', n):.2f} | {ms('igi-sh', n):.2f} | "
@@ -135,7 +138,7 @@ def main():
                        f"pixel, all three = {sum(delta.values()) / ray:.2f}.")
     lines += [""] + summary + [""]
     lines += ["| bytes per pixel | igi | igi-sh |", "|---|---|---|"]
-    costs = {t: igi(technique=t, direct="vpl", vpls=1024) for t in ("igi", "igi-sh")}
+    costs = {t: cost.cell(CORNELL, t, direct="vpl", vpls=1024) for t in ("igi", "igi-sh")}
     for key in ("gbuffer_bytes_per_pixel", "accumulation_bytes_per_pixel", "filtered_bytes_per_pixel",
                 "clamp_stats_bytes_per_pixel", "direct_bytes_per_pixel", "output_bytes_per_pixel"):
         lines.append(f"| {key.replace('_bytes_per_pixel', '')} | {costs['igi']['counters'][key]:.0f} | "

@@ -454,7 +454,18 @@ warmup = 5
             }
         }
         names.sort();
-        assert_eq!(names, ["ddgi.toml", "gpu.toml", "igi.toml", "quick.toml", "rsm-timing.toml", "rsm.toml"]);
+        assert_eq!(
+            names,
+            [
+                "ddgi.toml",
+                "gpu.toml",
+                "igi-cost.toml",
+                "igi.toml",
+                "quick.toml",
+                "rsm-timing.toml",
+                "rsm.toml"
+            ]
+        );
         // The scripts' suites use the per-scene overrides: bumpy-glossy at its own size, with the same
         // full-GI reference in both (one cached file), while rsm's other references are one-bounce.
         let load = |name: &str| Suite::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
