@@ -9,7 +9,8 @@ the tone-mapped bumpy-glossy images and their FLIP error maps come from `rtgi co
 the images the bench kept. Refuses a tree with uncommitted changes (the document names the commit) unless
 --allow-dirty. Environment: see scripts/measure_common.py.
 
-    python3 scripts/measure-igi.py            # everything (about 5 min on 2 CPU cores with lavapipe, references cached)
+    python3 scripts/measure-igi.py   # everything: about 3 min on 2 idle CPU cores with lavapipe when the two
+                                     # references are cached, about 20 min more to render them
 """
 import argparse
 import sys
