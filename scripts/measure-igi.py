@@ -9,7 +9,8 @@ the tone-mapped bumpy-glossy images and their FLIP error maps come from `rtgi co
 the images the bench kept. Refuses a tree with uncommitted changes (the document names the commit) unless
 --allow-dirty. Environment: see scripts/measure_common.py.
 
-    python3 scripts/measure-igi.py            # everything (about 5 min on 2 CPU cores with lavapipe, references cached)
+    python3 scripts/measure-igi.py   # everything: about 3 min on 2 idle CPU cores with lavapipe when the two
+                                     # references are cached, about 20 min more to render them
 """
 import argparse
 import sys
@@ -63,8 +64,11 @@ def main():
              "FLIP: mean NVIDIA FLIP (LDR, after the PNG tone map); relMSE: mean of (t − r)² / (r² + 0.01) — it is "
              "dominated by a few near-singular or glossy VPL spikes, FLIP by what is visible. Timings are "
              f"{m.time_source([cost])} around every pass (one command encoder per frame) on lavapipe, mean of the measured frames (the warm-up frame, which includes "
-             "lazy shader compilation, excluded); compare passes with each other, not with GPU figures. The "
-             "closing note of issue 4 and the README read these tables.", ""]
+             "lazy shader compilation, excluded); compare passes with each other, not with GPU figures. Each error "
+             "is that of one frame, i.e. of one draw of VPL sets: at few VPLs (and in relMSE at any count) it varies "
+             "with the draw. The bench measures the renderer's second frame (the first is the warm-up), whose sets "
+             "differ from those of `rtgi render --frames 1`. The closing note of issue 4 and the README read these "
+             "tables.", ""]
 
     # 1. Convergence on cornell.
     lines = ["## Convergence to the full-GI reference (cornell, interleave 4x4, filter on, g_max=0, direct=vpl)", "",
