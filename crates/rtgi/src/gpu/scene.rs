@@ -187,7 +187,8 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
 /// Largest texture layer edge; bigger images are downsampled (and a warning is recorded).
 pub const MAX_TEXTURE_SIZE: u32 = 2048;
 
-fn oct_encode(n: Vec3) -> Vec2 {
+/// The CPU twin of `oct_encode` (math.wgsl): a unit vector to the octahedral square [-1, 1]².
+pub fn oct_encode(n: Vec3) -> Vec2 {
     let n = n / (n.x.abs() + n.y.abs() + n.z.abs()).max(1e-20);
     if n.z >= 0.0 {
         Vec2::new(n.x, n.y)
@@ -195,6 +196,15 @@ fn oct_encode(n: Vec3) -> Vec2 {
         let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
         Vec2::new((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
     }
+}
+
+/// The CPU twin of `oct_decode` (math.wgsl): a point of the octahedral square to a unit vector.
+pub fn oct_decode(e: Vec2) -> Vec3 {
+    let mut n = Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+    let t = (-n.z).clamp(0.0, 1.0);
+    n.x += if n.x >= 0.0 { -t } else { t };
+    n.y += if n.y >= 0.0 { -t } else { t };
+    n.normalize()
 }
 
 fn pack_snorm16x2(v: Vec2) -> u32 {

@@ -20,11 +20,12 @@
 use std::collections::BTreeMap;
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Quat, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
 use crate::frame::{GBUFFER_BYTES_PER_PIXEL, OUTPUT_FORMAT};
 use crate::gpu::features::{Need, has};
+use crate::gpu::scene::{oct_decode, oct_encode};
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::params::{ParamKind, ParamSpec};
 use crate::scene::Aabb;
@@ -223,33 +224,14 @@ pub fn gutter_source(t: [u32; 2], interior: u32) -> [u32; 2] {
     }
 }
 
-/// The CPU twin of `oct_encode` (math.wgsl): a unit vector to [-1, 1]².
-pub fn oct_encode(n: Vec3) -> [f32; 2] {
-    let p = [n.x, n.y].map(|c| c / (n.x.abs() + n.y.abs() + n.z.abs()));
-    if n.z >= 0.0 {
-        return p;
-    }
-    let sign = |c: f32| if c >= 0.0 { 1.0 } else { -1.0 };
-    [(1.0 - p[1].abs()) * sign(p[0]), (1.0 - p[0].abs()) * sign(p[1])]
-}
-
-/// The CPU twin of `oct_decode` (math.wgsl).
-pub fn oct_decode(e: [f32; 2]) -> Vec3 {
-    let mut n = Vec3::new(e[0], e[1], 1.0 - e[0].abs() - e[1].abs());
-    let t = (-n.z).clamp(0.0, 1.0);
-    n.x += if n.x >= 0.0 { -t } else { t };
-    n.y += if n.y >= 0.0 { -t } else { t };
-    n.normalize()
-}
-
 /// The CPU twin of `texel_direction` (volume.wgsl).
 pub fn texel_direction(texel: [u32; 2], interior: u32) -> Vec3 {
-    oct_decode(texel.map(|c| (c as f32 + 0.5) / interior as f32 * 2.0 - 1.0))
+    oct_decode(Vec2::from(texel.map(|c| (c as f32 + 0.5) / interior as f32 * 2.0 - 1.0)))
 }
 
 /// The interior texel whose cell holds direction `dir` (what a nearest lookup returns).
 pub fn direction_texel(dir: Vec3, interior: u32) -> [u32; 2] {
-    oct_encode(dir).map(|c| (((c * 0.5 + 0.5) * interior as f32) as u32).min(interior - 1))
+    oct_encode(dir).to_array().map(|c| (((c * 0.5 + 0.5) * interior as f32) as u32).min(interior - 1))
 }
 
 /// A uniformly random rotation (Shoemake's quaternion from three uniform numbers) for frame `frame`.

@@ -71,12 +71,12 @@ fn octahedral_texels_round_trip_through_their_directions() {
 /// Folds a point of the octahedral square's plane that lies beyond an edge back inside: across the
 /// edge x = ±1 the map continues mirrored in y, and likewise for y (the octahedron's lower faces
 /// meet along the square's edges). Derived from the geometry, independently of `gutter_source`.
-fn fold(mut e: [f32; 2]) -> [f32; 2] {
-    if e[0].abs() > 1.0 {
-        e = [e[0].signum() * (2.0 - e[0].abs()), -e[1]];
+fn fold(mut e: Vec2) -> Vec2 {
+    if e.x.abs() > 1.0 {
+        e = Vec2::new(e.x.signum() * (2.0 - e.x.abs()), -e.y);
     }
-    if e[1].abs() > 1.0 {
-        e = [-e[0], e[1].signum() * (2.0 - e[1].abs())];
+    if e.y.abs() > 1.0 {
+        e = Vec2::new(-e.x, e.y.signum() * (2.0 - e.y.abs()));
     }
     e
 }
@@ -87,7 +87,7 @@ fn every_gutter_texel_holds_its_octahedral_neighbour() {
         for y in 0..interior + 2 {
             for x in 0..interior + 2 {
                 // The gutter texel's centre continues the interior grid one texel beyond the edge.
-                let e = [x, y].map(|c| (c as f32 - 0.5) / interior as f32 * 2.0 - 1.0);
+                let e = Vec2::from([x, y].map(|c| (c as f32 - 0.5) / interior as f32 * 2.0 - 1.0));
                 let expected = direction_texel(oct_decode(fold(e)), interior);
                 assert_eq!(gutter_source([x, y], interior), expected, "texel ({x}, {y}) of {interior}");
             }
