@@ -3,33 +3,27 @@
 
     cargo build --release -p rtgi-cli && python3 scripts/measure-ddgi.py     # about 20 min on lavapipe
 
-Runs `rtgi bench benches/ddgi.toml --out $OUT --images` (default target/measure/ddgi), copies its
+Runs `rtgi bench benches/ddgi.toml --out $SCRATCH --images` (default target/measure/ddgi), copies its
 report (report.md, report.html, the Pareto SVGs, results.json) to docs/measurements/ddgi-bench/, and
 adds what the bench does not compute: the light in two-rooms' dark room (`rtgi compare --region` of
-each cell's kept image against the reference) and DDGI's per-pass split. Python 3 standard library only.
+each cell's kept image against the reference), DDGI's per-pass split and its lag after a light moves.
+Environment and shared helpers: scripts/measure_common.py.
 """
 import json
 import math
-import os
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-os.chdir(ROOT)
-os.environ.setdefault("NODEVICE_SELECT", "1")
-RTGI = ROOT / "target/release/rtgi"
-OUT = Path(os.environ.get("OUT", "target/measure/ddgi"))
-DOC = ROOT / "docs/measurements"
-SUITE = ROOT / "benches/ddgi.toml"
+sys.dont_write_bytecode = True
+import measure_common as m  # noqa: E402
+
+OUT = m.scratch("ddgi")
+DOC = m.ROOT / "docs/measurements"
+SUITE = m.ROOT / "benches/ddgi.toml"
 # The floor of two-rooms' dark room (the camera's room) at 128x128: every pixel below the doorway's
 # sill line shows room 2's floor, which only light through the doorway may reach.
 DARK_FLOOR = "0,100,128,28"
-
-
-def sh(*args):
-    return subprocess.run([str(a) for a in args], check=True, capture_output=True, text=True).stdout
 
 
 def label(cell):
@@ -57,7 +51,7 @@ CONVERGE = 1500
 LAG_PROBES = 4
 
 
-def lag_section():
+def lag_section(rtgi):
     """Step response: probes converged with the spot at t = 0, the spot jumps to its pose at t = 1.5 s;
     frames until FLIP against the converged image of the new pose falls below 0.05."""
     out = OUT / "lag"
@@ -77,23 +71,23 @@ def lag_section():
     for scene in ("cornell-spot:animate=spot", "two-rooms:animate=spot"):
         for alpha in ("0.85", "0.95", "0.98"):
             tag = f"{scene.split(':')[0]}-{alpha}"
-            common = [RTGI, "render", "--scene", scene, "--technique", "ddgi", "--size", LAG_SIZE,
+            common = [rtgi, "render", "--scene", scene, "--technique", "ddgi", "--size", LAG_SIZE,
                       "--set", f"hysteresis={alpha}", "--set", f"probe_count={LAG_PROBES}"]
             converged = out / f"{tag}-converged.exr"
-            sh(*common, "--time", "1.5", "--frames", CONVERGE, "--out", converged)
-            sh(*common, "--warmup", CONVERGE, "--warmup-time", "0", "--time", "1.5", "--hold",
-               "--frames", LAG_FRAMES, "--out", out / f"{tag}-step_%04d.exr")
+            m.run([*common, "--time", "1.5", "--frames", CONVERGE, "--out", converged])
+            m.run([*common, "--warmup", CONVERGE, "--warmup-time", "0", "--time", "1.5", "--hold",
+                   "--frames", LAG_FRAMES, "--out", out / f"{tag}-step_%04d.exr"])
             for k in range(LAG_FRAMES):
                 link = out / f"{tag}-target_{k:04d}.exr"
                 if not link.exists():
                     link.symlink_to(converged.name)
-            m = json.loads(sh(RTGI, "compare", out / f"{tag}-target_%04d.exr", out / f"{tag}-step_%04d.exr",
-                              "--json"))
-            flips = [f["flip"] for f in m["frames"]]
+            seq = json.loads(m.run([rtgi, "compare", out / f"{tag}-target_%04d.exr",
+                                    out / f"{tag}-step_%04d.exr", "--json"]))
+            flips = [f["flip"] for f in seq["frames"]]
             settled = next((k for k in range(len(flips)) if all(f < 0.05 for f in flips[k:])), None)
             for k in range(LAG_FRAMES - 30):
                 (out / f"{tag}-step_{k:04d}.exr").unlink()
-            stable = json.loads(sh(RTGI, "compare", "--temporal", out / f"{tag}-step_%04d.exr", "--json"))
+            stable = json.loads(m.run([rtgi, "compare", "--temporal", out / f"{tag}-step_%04d.exr", "--json"]))
             lines.append(f"| {scene.split(':')[0]} | {alpha} | {flips[0]:.4f} | "
                          f"{settled + 1 if settled is not None else f'not within {LAG_FRAMES}'} | "
                          f"{flips[-1]:.4f} | {stable['flip']:.4f} |")
@@ -101,14 +95,12 @@ def lag_section():
 
 
 def main():
-    sh("cargo", "build", "--release", "-p", "rtgi-cli")
-    dirty = sh("git", "status", "--porcelain", "--untracked-files=no").strip()
-    if dirty and "--allow-dirty" not in sys.argv:
-        sys.exit("commit first: the figures must name a clean commit (or pass --allow-dirty)")
+    m.refuse_dirty_tree("--allow-dirty" in sys.argv, "measure-ddgi.py")
+    rtgi = m.rtgi_binary()
     if OUT.exists():
         shutil.rmtree(OUT)
     print("running benches/ddgi.toml ...", flush=True)
-    subprocess.run([str(RTGI), "bench", str(SUITE), "--out", str(OUT), "--images"], check=True)
+    subprocess.run([str(rtgi), "bench", str(SUITE), "--out", str(OUT), "--images"], check=True)
     results = json.loads((OUT / "results.json").read_text())
     bench_doc = DOC / "ddgi-bench"
     if bench_doc.exists():
@@ -122,7 +114,7 @@ def main():
     lines = [
         "# DDGI (issue 12): measurements", "",
         f"Printed by `python3 scripts/measure-ddgi.py` from `rtgi bench benches/ddgi.toml` at commit "
-        f"`{results['rtgi']['commit']}` on {adapter['name']} [{adapter['driver_info']}, {adapter['backend']}], "
+        f"`{results['rtgi']['commit']}` on {m.adapter_text(adapter)}, "
         "2 CPU cores. The bench's own report (Pareto plots, every cell with thumbnails and error maps) is in "
         "[`ddgi-bench/`](ddgi-bench/report.md).", "",
         "Each cell: a fresh renderer, `warmup` frames (100 for DDGI: its probes converge; a camera cut does not "
@@ -160,7 +152,7 @@ def main():
     two = [c for c in cells if c["scene"] == "two-rooms" and c.get("image_file")]
     if two:
         ref_exr = OUT / "two-rooms-reference.exr"
-        sh(RTGI, "reference", "--scene", "two-rooms", "--size", "128x128", "--spp", "256", "--out", ref_exr)
+        m.run([rtgi, "reference", "--scene", "two-rooms", "--size", "128x128", "--spp", "256", "--out", ref_exr])
         lines += ["## Leaks: light on two-rooms' dark floor", "",
                   f"Mean luminance of the dark room's floor (pixels {DARK_FLOOR}: x, y, w, h) against the "
                   "reference's; light reaches it only through the doorway. The ladder adds the paper's "
@@ -169,13 +161,11 @@ def main():
         for c in two:
             if c["technique"] == "path" and c["sweep"].get("spp") != "8":
                 continue
-            m = json.loads(sh(RTGI, "compare", ref_exr, OUT / "images" / c["image_file"], "--json",
-                              "--region", DARK_FLOOR))
-            r = m["region"]
+            r = m.compare(rtgi, ref_exr, OUT / "images" / c["image_file"], region=DARK_FLOOR)["region"]
             lines.append(f"| {label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
                          f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f} |")
         lines.append("")
-    lines += lag_section()
+    lines += lag_section(rtgi)
     (DOC / "ddgi.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
