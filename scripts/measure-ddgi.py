@@ -144,7 +144,9 @@ def main():
                 f"{k['probe_rays_per_frame']:.0f} probe rays per frame at "
                 f"{k['probe_rays_per_second'] / 1e6:.2f} M rays/s (shading shadow rays not counted), atlases "
                 f"{(k['irradiance_atlas_bytes'] + k['distance_atlas_bytes']) / 2**20:.2f} MiB (both ping-pong "
-                f"copies), back-face rays {100 * k['backface_ray_fraction']:.1f} %."
+                f"copies), back-face rays {100 * k['backface_ray_fraction']:.1f} %; "
+                f"{k['probes_active']:.0f} probes active after classification, {k['probes_relocated']:.0f} "
+                f"relocated, {k['probes_inside_geometry']:.0f} inside geometry."
                 + (f" Frame time over igi at 1024 VPLs: {ddgi['frame_ms'] / igi['frame_ms']:.2f}×." if igi else ""))
             lines.append("")
 
@@ -156,7 +158,8 @@ def main():
         lines += ["## Leaks: light on two-rooms' dark floor", "",
                   f"Mean luminance of the dark room's floor (pixels {DARK_FLOOR}: x, y, w, h) against the "
                   "reference's; light reaches it only through the doorway. The ladder adds the paper's "
-                  "weights one at a time.", "",
+                  "weights one at a time, then RTXGI's probe relocation and classification (the default "
+                  "`ddgi` cells).", "",
                   "| cell | floor / reference | FLIP | relMSE |", "|---|---|---|---|"]
         for c in two:
             if c["technique"] == "path" and c["sweep"].get("spp") != "8":

@@ -57,12 +57,20 @@ fn fresnel_schlick(f0: vec3f, cos_theta: f32) -> vec3f {
 
 const DIELECTRIC_F0: f32 = 0.04;
 
-// BRDF value (without the cosine) for unit vectors n, v (towards the viewer), l (towards the light).
-fn brdf_eval(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> vec3f {
+// The BRDF's parts for unit vectors n, v (towards the viewer), l (towards the light), zero below the
+// surface: the dielectric's diffuse and specular layers and the metal's lobe, before the metallic mix.
+struct BrdfTerms {
+    dielectric_diffuse: vec3f,
+    dielectric_specular: f32,
+    metal: vec3f,
+}
+
+fn brdf_terms(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> BrdfTerms {
+    var t: BrdfTerms;
     let n_dot_l = dot(n, l);
     let n_dot_v = dot(n, v);
     if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
-        return vec3f(0.0);
+        return t;
     }
     let h = normalize(v + l);
     let n_dot_h = saturate(dot(n, h));
@@ -70,9 +78,34 @@ fn brdf_eval(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> vec3f {
     let alpha = ggx_alpha(m.roughness);
     let spec = ggx_d(alpha, n_dot_h) * smith_visibility(alpha, n_dot_l, n_dot_v);
     let fw = m.specular * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * schlick_weight(v_dot_h));
-    let dielectric = m.base_color * INV_PI * (1.0 - fw) + vec3f(spec * fw);
-    let metal = fresnel_schlick(m.base_color, v_dot_h) * spec;
-    return mix(dielectric, metal, m.metallic);
+    t.dielectric_diffuse = m.base_color * INV_PI * (1.0 - fw);
+    t.dielectric_specular = spec * fw;
+    t.metal = fresnel_schlick(m.base_color, v_dot_h) * spec;
+    return t;
+}
+
+// BRDF value (without the cosine).
+fn brdf_eval(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> vec3f {
+    let t = brdf_terms(m, n, v, l);
+    return mix(t.dielectric_diffuse + vec3f(t.dielectric_specular), t.metal, m.metallic);
+}
+
+// The BRDF's specular (GGX) part alone, without the cosine.
+fn brdf_eval_specular(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> vec3f {
+    let t = brdf_terms(m, n, v, l);
+    return mix(vec3f(t.dielectric_specular), t.metal, m.metallic);
+}
+
+// Density of sampling l by GGX's visible normals from v (what `brdf_sample` does for its specular
+// lobe): D_v(h) / (4 v·h) = G1(v) D(h) / (4 n·v).
+fn ggx_vndf_pdf(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> f32 {
+    let n_dot_v = dot(n, v);
+    if dot(n, l) <= 0.0 || n_dot_v <= 0.0 {
+        return 0.0;
+    }
+    let alpha = ggx_alpha(m.roughness);
+    let h = normalize(v + l);
+    return smith_g1(alpha, n_dot_v) * ggx_d(alpha, saturate(dot(n, h))) / (4.0 * n_dot_v);
 }
 
 // Probability of choosing the specular lobe when sampling: the lobe's Fresnel-weighted share at
@@ -98,11 +131,7 @@ fn brdf_pdf(m: SurfaceMaterial, n: vec3f, v: vec3f, l: vec3f) -> f32 {
         return 0.0;
     }
     let p_spec = specular_probability(m, n_dot_v);
-    let h = normalize(v + l);
-    let alpha = ggx_alpha(m.roughness);
-    // VNDF: D_v(h) / (4 v·h) = G1(v) D(h) / (4 n·v).
-    let pdf_spec = smith_g1(alpha, n_dot_v) * ggx_d(alpha, saturate(dot(n, h))) / (4.0 * n_dot_v);
-    return p_spec * pdf_spec + (1.0 - p_spec) * n_dot_l * INV_PI;
+    return p_spec * ggx_vndf_pdf(m, n, v, l) + (1.0 - p_spec) * n_dot_l * INV_PI;
 }
 
 struct BrdfSample {

@@ -224,6 +224,14 @@ fn surface_at(triangle: u32, u: f32, v: f32, dir: vec3f) -> SurfaceHit {
     return s;
 }
 
+// Whether a ray along `dir` meets `triangle` at barycentrics (u, v) from behind: the side its authored
+// normals point away from (rtgi shades both sides, so only probes that must tell inside from outside ask).
+fn hits_back_face(triangle: u32, u: f32, v: f32, dir: vec3f) -> bool {
+    let t = triangle_vertices(triangle);
+    let n = vertex_normal(t[0]) * (1.0 - u - v) + vertex_normal(t[1]) * u + vertex_normal(t[2]) * v;
+    return dot(n, dir) > 0.0;
+}
+
 // A ray origin off the surface at p (geometric normal ng), by an offset relative to the scene's float
 // precision at p, so secondary rays do not hit the surface they leave.
 fn offset_origin(p: vec3f, ng: vec3f) -> vec3f {

@@ -1,12 +1,17 @@
 //! `ddgi`: dynamic diffuse global illumination with ray-traced irradiance probes (Majercik et al.
 //! 2019, the fourth article of `research/seeds/003`; its errata are in the report's §4 and §6).
 //!
-//! A grid of probes over the scene's bounds. Per frame: `probe trace` casts `rays` rays from every probe
-//! on a randomly rotated spherical Fibonacci pattern and shades their hits like camera pixels (direct
+//! A grid of probes over the scene's bounds, or centred on the camera and scrolling with it in whole
+//! cells (`volume=camera`). Per frame: `probe state` resets the probes of cells that entered the
+//! volume and relocates and classifies the probes as RTXGI does (out of geometry, away from nearby
+//! surfaces; off where inside geometry or with no surface within a cell); `probe trace` casts `rays`
+//! rays from every active probe of this frame's update (all, or a rotating `probes_per_frame` subset) on
+//! a randomly rotated spherical Fibonacci pattern and shades their hits like camera pixels (direct
 //! light through shadow rays + the previous frame's probes, so bounces add up over frames); `probe
 //! irradiance update` and `probe distance update` blend them into octahedral atlases with hysteresis;
 //! `direct lighting` is the shared direct pass; `probe sampling` adds the probes' diffuse light to
-//! every pixel through the 8-probe cage with the paper's visibility weights.
+//! every pixel through the 8-probe cage with the paper's visibility weights, and the specular light of
+//! glossy surfaces through one traced reflection ray (`reflection_ray`).
 //!
 //! Where the light of emitters and the environment goes is a parameter: with `emitters=direct` (the
 //! default) camera pixels and probe-ray hits sample them with shadow rays and the probes carry only
@@ -50,12 +55,56 @@ const UPDATE_TILE: u32 = 8;
 /// Irradiance atlas formats (`format`); the paper compares R11G11B10F and RGB10A2 with 16-bit floats.
 const IRRADIANCE_FORMATS: &[&str] = &["rgba16float", "rgba32float", "rg11b10ufloat", "rgb10a2unorm"];
 
-const DDGI_PARAMS: [ParamSpec; 20] = with_direct_params![
+/// Rays per probe of the relocation and classification pass (`CLASSIFY_RAYS` in state.wgsl; RTXGI's
+/// fixed rays are 32 too).
+const CLASSIFY_RAYS: u32 = 32;
+/// A probe stands inside geometry when more than this fraction of its classification rays hit back faces.
+const BACKFACE_THRESHOLD: f32 = 0.25;
+/// How close to a surface relocation lets a probe stand, as a fraction of the smallest probe spacing.
+const MIN_SURFACE_DISTANCE: f32 = 0.1;
+
+const DDGI_PARAMS: [ParamSpec; 28] = with_direct_params![
     ParamSpec {
         name: "probe_count",
         kind: ParamKind::Int { min: 2, max: 64 },
         default: "8",
         doc: "probes along the scene's longest axis; the other axes get about the same spacing (at least 2 probes), all centred in their cells of the scene's bounds",
+    },
+    ParamSpec {
+        name: "volume",
+        kind: ParamKind::Choice(&["scene", "camera"]),
+        default: "scene",
+        doc: "where the probes stand: over the scene's bounds (scene), or a volume of the same probe counts centred on the camera that scrolls with it in whole cells, reusing the probes of the cells it leaves for those it enters (camera, for scenes larger than one volume)",
+    },
+    ParamSpec {
+        name: "probe_spacing",
+        kind: ParamKind::Float { min: 0.0, max: 1.0e6 },
+        default: "0",
+        doc: "with volume=camera, the distance between probes in world units (0: the spacing of the scene's grid)",
+    },
+    ParamSpec {
+        name: "probes_per_frame",
+        kind: ParamKind::Int { min: 0, max: 262_144 },
+        default: "0",
+        doc: "probes traced and updated per frame, a rotating subset (0: every probe every frame)",
+    },
+    ParamSpec {
+        name: "relocation",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "move probes out of geometry and away from nearby surfaces, within relocation_limit of their lattice points",
+    },
+    ParamSpec {
+        name: "relocation_limit",
+        kind: ParamKind::Float { min: 0.0, max: 0.5 },
+        default: "0.45",
+        doc: "farthest a probe is relocated along each axis, as a fraction of the probe spacing",
+    },
+    ParamSpec {
+        name: "classification",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "switch off probes inside geometry or with no surface within one spacing (not traced, updated or interpolated)",
     },
     ParamSpec {
         name: "rays",
@@ -100,6 +149,18 @@ const DDGI_PARAMS: [ParamSpec; 20] = with_direct_params![
         doc: "light of emissive surfaces and the environment: sampled with shadow rays at pixels and probe hits, the probes carrying only bounced light (direct), or carried by the probes (probes, as the paper does for area lights)",
     },
     ParamSpec {
+        name: "reflection_ray",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "trace one GGX-sampled reflection ray per pixel and frame for the specular light of surfaces smoother than reflection_roughness (shaded at its hit with direct light and the probes)",
+    },
+    ParamSpec {
+        name: "reflection_roughness",
+        kind: ParamKind::Float { min: 0.0, max: 1.0 },
+        default: "0.6",
+        doc: "surfaces below this roughness get the reflection ray; rougher ones get no indirect specular light",
+    },
+    ParamSpec {
         name: "backface_weight",
         kind: ParamKind::Bool,
         default: "true",
@@ -138,9 +199,18 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Temporal,
-    validate: super::independent_params,
+    validate,
     create,
 };
+
+fn validate(p: &crate::params::ParamValues) -> Result<(), String> {
+    if p.choice("volume") == "scene" && p.float("probe_spacing") > 0.0 {
+        return Err(
+            "ddgi: probe_spacing applies to volume=camera; the scene's grid is spaced by probe_count".into(),
+        );
+    }
+    Ok(())
+}
 
 /// Mirrors `ProbeFrame` in volume.wgsl.
 #[repr(C)]
@@ -148,8 +218,39 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 pub struct ProbeFrame {
     /// Columns of the ray pattern's rotation (mat3x3f: each column padded to 16 bytes).
     pub rotation: [[f32; 4]; 3],
+    pub scroll: [i32; 3],
     pub hysteresis: f32,
-    pub _pad: [f32; 3],
+    pub previous_scroll: [i32; 3],
+    pub update_start: u32,
+    pub update_count: u32,
+    pub _pad: [u32; 3],
+}
+
+/// Mirrors `ProbeState` in volume.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ProbeState {
+    pub offset: [f32; 3],
+    pub flags: u32,
+}
+
+/// Bits of `ProbeState::flags` (defined for the shaders too, see `flag_defines`). Active: traced,
+/// updated and interpolated (classification turns it off).
+pub const PROBE_ACTIVE: u32 = 1;
+/// Its atlas texels hold its light once this frame's update has run (clear: never updated since it was
+/// created or scrolled into the volume, so interpolation skips it).
+pub const PROBE_VALID: u32 = 2;
+/// This frame's update blends into its texels with the hysteresis (clear: the update replaces them).
+pub const PROBE_BLEND: u32 = 4;
+/// Most of its classification rays hit back faces: it stands inside geometry.
+pub const PROBE_INSIDE: u32 = 8;
+
+fn flag_defines(defines: Defines) -> Defines {
+    defines
+        .u32("PROBE_ACTIVE", PROBE_ACTIVE)
+        .u32("PROBE_VALID", PROBE_VALID)
+        .u32("PROBE_BLEND", PROBE_BLEND)
+        .u32("PROBE_INSIDE", PROBE_INSIDE)
 }
 
 /// Where the probes stand: `counts` probes per axis, the first at `first`, `spacing` apart.
@@ -178,6 +279,14 @@ impl ProbeGrid {
 
     pub fn position(&self, g: [u32; 3]) -> Vec3 {
         self.first + Vec3::from(g.map(|c| c as f32)) * self.spacing
+    }
+
+    /// The first lattice cell of a volume of `counts` probes centred on `camera` (whole cells, so that
+    /// the probes stay put in the world while the camera moves within a cell).
+    pub fn scroll_for(&self, camera: Vec3) -> [i32; 3] {
+        let centre = (camera - self.first) / self.spacing;
+        let half = Vec3::from(self.counts.map(|c| (c - 1) as f32 * 0.5));
+        (centre - half).round().to_array().map(|c| c as i32)
     }
 
     /// Farthest a probe's distance moments look: 1.5 cell diagonals (misses are recorded there).
@@ -305,6 +414,7 @@ impl Atlas {
         defines: &Defines,
         rays: &wgpu::Buffer,
         frame_uniform: &wgpu::Buffer,
+        probe_states: &wgpu::Buffer,
     ) -> Result<Atlas, RenderError> {
         let (w, h) = layout.size();
         let make = |i: usize| {
@@ -326,6 +436,7 @@ impl Atlas {
                 texture_entry(1, wgpu::TextureSampleType::Float { filterable: false }),
                 uniform_entry(2),
                 storage_texture_entry(3, format, wgpu::StorageTextureAccess::WriteOnly),
+                storage_buffer_entry(4, true),
             ],
         );
         let groups = [0, 1].map(|w| {
@@ -338,6 +449,7 @@ impl Atlas {
                     wgpu::BindingResource::TextureView(&views[1 - w]),
                     frame_uniform.as_entire_binding(),
                     wgpu::BindingResource::TextureView(&views[w]),
+                    probe_states.as_entire_binding(),
                 ],
             )
         });
@@ -365,11 +477,23 @@ impl Atlas {
 
 pub(crate) struct Ddgi {
     grid: ProbeGrid,
+    /// Whether the volume follows the camera (scrolls) or stays over the scene.
+    follows_camera: bool,
+    /// First lattice cell of the volume in the last frame (None before the first).
+    scroll: Option<[i32; 3]>,
+    /// Probes traced and updated per frame, and the first slot of the next frame's subset.
+    update_count: u32,
+    next_update_start: u32,
     rays_per_probe: u32,
     hysteresis: f32,
     seed: u32,
+    probe_states: wgpu::Buffer,
+    state: wgpu::ComputePipeline,
+    state_group: wgpu::BindGroup,
     direct: DirectLighting,
     _direct_texture: wgpu::Texture,
+    /// Mean light of the reflection rays (1×1 without them).
+    reflection: wgpu::Texture,
     frame_uniform: wgpu::Buffer,
     ray_data: wgpu::Buffer,
     ray_stats: wgpu::Buffer,
@@ -383,7 +507,7 @@ pub(crate) struct Ddgi {
     shade_groups: [wgpu::BindGroup; 2],
     /// The atlases the next update writes.
     written: usize,
-    /// Updates since creation (0: the next blend keeps nothing of the zeroed atlases).
+    /// Updates since creation.
     updates: u32,
     max_workgroups: u32,
     width: u32,
@@ -399,8 +523,18 @@ impl Ddgi {
     pub(crate) fn new(setup: &TechniqueSetup) -> Result<Self, RenderError> {
         let ctx = setup.ctx;
         let p = setup.params;
-        let grid = ProbeGrid::fit(setup.gpu_scene.bounds(), p.int("probe_count") as u32);
+        let mut grid = ProbeGrid::fit(setup.gpu_scene.bounds(), p.int("probe_count") as u32);
+        let follows_camera = p.choice("volume") == "camera";
+        let spacing = p.float("probe_spacing") as f32;
+        if follows_camera && spacing > 0.0 {
+            grid.spacing = Vec3::splat(spacing);
+            grid.first = setup.gpu_scene.bounds().min + grid.spacing * 0.5;
+        }
         let probes = grid.probes();
+        let update_count = match p.int("probes_per_frame") as u32 {
+            0 => probes,
+            n => n.min(probes),
+        };
         let rays_per_probe = p.int("rays") as u32;
         let emitters_in_probes = p.choice("emitters") == "probes";
         let mut warnings = Vec::new();
@@ -444,7 +578,7 @@ impl Ddgi {
         ctx.check_storage_size("the probe ray buffer", ray_count * 16)?;
 
         let min_spacing = grid.spacing.min_element();
-        let defines = Defines::new()
+        let defines = flag_defines(Defines::new())
             .vec3u("PROBE_COUNTS", grid.counts)
             .vec3f("FIRST_PROBE", grid.first.to_array())
             .vec3f("PROBE_SPACING", grid.spacing.to_array())
@@ -461,7 +595,17 @@ impl Ddgi {
             .bool("LOW_WEIGHT_CRUSH", p.bool("low_weight_crush"))
             .bool("EMITTERS_IN_PROBES", emitters_in_probes)
             .u32("SURFEL_AREA_SAMPLES", u32::from(!emitters_in_probes))
-            .u32("SURFEL_ENV_SAMPLES", u32::from(!emitters_in_probes));
+            .u32("SURFEL_ENV_SAMPLES", u32::from(!emitters_in_probes))
+            .bool("REFLECTION_RAY", p.bool("reflection_ray"))
+            .f32("REFLECTION_ROUGHNESS", p.float("reflection_roughness") as f32);
+        let state_defines = defines
+            .clone()
+            .u32("CLASSIFY_RAYS", CLASSIFY_RAYS)
+            .f32("BACKFACE_THRESHOLD", BACKFACE_THRESHOLD)
+            .f32("MIN_SURFACE_DISTANCE", MIN_SURFACE_DISTANCE * min_spacing)
+            .f32("RELOCATION_LIMIT", p.float("relocation_limit") as f32)
+            .bool("RELOCATION", p.bool("relocation"))
+            .bool("CLASSIFICATION", p.bool("classification"));
 
         let device = &ctx.device;
         let frame_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -472,7 +616,29 @@ impl Ddgi {
         let ray_data = device.create_buffer(
             &crate::gpu::BufferBuilder::new("probe rays", ray_count * 16).storage().copy().descriptor(),
         );
-        let ray_stats = compute::storage_buffer(ctx, "probe ray stats", 4);
+        let ray_stats = compute::storage_buffer(ctx, "probe ray stats", 8);
+        let fresh = ProbeState { offset: [0.0; 3], flags: PROBE_ACTIVE };
+        let probe_states = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("probe states"),
+            contents: bytemuck::cast_slice(&vec![fresh; probes as usize]),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        });
+        let state_layout =
+            compute::layout(ctx, "probe state", &[storage_buffer_entry(0, false), uniform_entry(1)]);
+        let state_group = compute::bind_group(
+            ctx,
+            "probe state",
+            &state_layout,
+            &[probe_states.as_entire_binding(), frame_uniform.as_entire_binding()],
+        );
+        let state = compute::pipeline(
+            ctx,
+            "probe state",
+            &format!("{VOLUME_WGSL}\n{}", include_str!("state.wgsl")),
+            setup.gpu_scene.bvh_defines(state_defines),
+            "main",
+            &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &state_layout],
+        )?;
         let irradiance = Atlas::new(
             ctx,
             "probe irradiance update",
@@ -482,6 +648,7 @@ impl Ddgi {
             &defines,
             &ray_data,
             &frame_uniform,
+            &probe_states,
         )?;
         let distance = Atlas::new(
             ctx,
@@ -492,6 +659,7 @@ impl Ddgi {
             &defines,
             &ray_data,
             &frame_uniform,
+            &probe_states,
         )?;
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("probe atlases"),
@@ -518,6 +686,7 @@ impl Ddgi {
                 wgpu::BindGroupLayoutEntry { binding: 3, ..sampler_entry },
                 uniform_entry(4),
                 storage_buffer_entry(5, false),
+                storage_buffer_entry(6, true),
             ],
         );
         let trace_groups = [0, 1].map(|w| {
@@ -532,6 +701,7 @@ impl Ddgi {
                     wgpu::BindingResource::Sampler(&sampler),
                     frame_uniform.as_entire_binding(),
                     ray_stats.as_entire_binding(),
+                    probe_states.as_entire_binding(),
                 ],
             )
         });
@@ -564,9 +734,14 @@ impl Ddgi {
                 texture_entry(3, filterable),
                 wgpu::BindGroupLayoutEntry { binding: 4, ..sampler_entry },
                 uniform_entry(5),
+                storage_buffer_entry(6, true),
+                storage_texture_entry(7, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
             ],
         );
         let output_view = setup.output.create_view(&Default::default());
+        let (rw, rh) = if p.bool("reflection_ray") { (width, height) } else { (1, 1) };
+        let reflection = compute::storage_texture(ctx, "ddgi reflection", rw, rh, OUTPUT_FORMAT);
+        let reflection_view = reflection.create_view(&Default::default());
         let direct_view = direct_texture.create_view(&Default::default());
         let shade_groups = [0, 1].map(|w| {
             compute::bind_group(
@@ -580,6 +755,8 @@ impl Ddgi {
                     wgpu::BindingResource::TextureView(&distance.views[w]),
                     wgpu::BindingResource::Sampler(&sampler),
                     frame_uniform.as_entire_binding(),
+                    probe_states.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&reflection_view),
                 ],
             )
         });
@@ -587,18 +764,26 @@ impl Ddgi {
             ctx,
             "probe sampling",
             &format!("{VOLUME_WGSL}\n{QUERY_WGSL}\n{}", include_str!("shade.wgsl")),
-            defines,
+            setup.gpu_scene.bvh_defines(defines),
             "main",
             &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &shade_layout],
         )?;
 
         Ok(Ddgi {
             grid,
+            follows_camera,
+            scroll: None,
+            update_count,
+            next_update_start: 0,
+            probe_states,
+            state,
+            state_group,
             rays_per_probe,
             hysteresis: p.float("hysteresis") as f32,
             seed: p.int("seed") as u32,
             direct,
             _direct_texture: direct_texture,
+            reflection,
             frame_uniform,
             ray_data,
             ray_stats,
@@ -617,15 +802,38 @@ impl Ddgi {
         })
     }
 
-    /// Writes this frame's ray rotation and blend weight.
-    fn write_frame_uniform(&self, ctx: &GpuContext, frame_counter: u32) {
-        let r = ray_rotation(self.seed, frame_counter);
+    /// Writes this frame's volume position, update subset and ray rotation, and runs the probe state
+    /// pass (fresh probes where the volume scrolled, relocation, classification).
+    pub(crate) fn begin_frame(
+        &mut self,
+        fc: &FrameContext,
+        profiler: &mut Profiler,
+    ) -> Result<(), RenderError> {
+        let scroll = if self.follows_camera { self.grid.scroll_for(fc.view.camera.position) } else { [0; 3] };
+        let r = ray_rotation(self.seed, fc.view.frame_counter);
         let uniform = ProbeFrame {
             rotation: [r.x_axis, r.y_axis, r.z_axis].map(|c| [c.x, c.y, c.z, 0.0]),
-            hysteresis: if self.updates == 0 { 0.0 } else { self.hysteresis },
-            _pad: [0.0; 3],
+            scroll,
+            hysteresis: self.hysteresis,
+            previous_scroll: self.scroll.unwrap_or(scroll),
+            update_start: self.next_update_start,
+            update_count: self.update_count,
+            _pad: [0; 3],
         };
-        ctx.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
+        fc.ctx.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
+        let groups = crate::gpu::dispatch::workgroups_for(self.grid.probes(), 1, self.max_workgroups);
+        profiler.pass(fc.ctx, "probe state", |encoder| {
+            compute::dispatch(
+                encoder,
+                "probe state",
+                &self.state,
+                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.state_group],
+                groups,
+            );
+        })?;
+        self.scroll = Some(scroll);
+        self.next_update_start = (self.next_update_start + self.update_count) % self.grid.probes();
+        Ok(())
     }
 
     /// Blends the rays in `ray_data` into the atlases (the two update passes) and flips the atlases.
@@ -650,14 +858,21 @@ impl Ddgi {
         1 - self.written
     }
 
+    /// Rays traced per frame when every probe of the update subset is active.
     fn probe_rays(&self) -> u64 {
-        u64::from(self.grid.probes()) * u64::from(self.rays_per_probe)
+        u64::from(self.update_count) * u64::from(self.rays_per_probe)
+    }
+
+    /// Every probe's state, read back.
+    pub(crate) fn read_states(&self, ctx: &GpuContext) -> Result<Vec<ProbeState>, RenderError> {
+        let bytes = readback::read_buffer(ctx, &self.probe_states, 0, self.probe_states.size())?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
     }
 }
 
 impl Technique for Ddgi {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        self.write_frame_uniform(fc.ctx, fc.view.frame_counter);
+        self.begin_frame(fc, profiler)?;
         let groups = crate::gpu::dispatch::workgroups_for(
             self.probe_rays() as u32,
             TRACE_WORKGROUP,
@@ -682,9 +897,16 @@ impl Technique for Ddgi {
         ctx: &GpuContext,
         measured: &Measured,
     ) -> Result<BTreeMap<String, f64>, RenderError> {
-        let stats = readback::read_buffer(ctx, &self.ray_stats, 0, 4)?;
-        let backface = f64::from(bytemuck::cast_slice::<u8, u32>(&stats)[0]);
-        let traced = self.probe_rays() as f64 * f64::from(self.updates);
+        let stats = readback::read_buffer(ctx, &self.ray_stats, 0, 8)?;
+        let stats = bytemuck::cast_slice::<u8, u32>(&stats);
+        let (backface, traced) = (f64::from(stats[0]), f64::from(stats[1]));
+        let states = self.read_states(ctx)?;
+        let with = |flag: u32| states.iter().filter(|s| s.flags & flag != 0).count() as f64;
+        let spacing = self.grid.spacing;
+        let offsets: Vec<f32> =
+            states.iter().map(|s| (Vec3::from(s.offset) / spacing).abs().max_element()).collect();
+        let relocated = offsets.iter().filter(|&&o| o > 0.0).count() as f64;
+        let mean_offset = offsets.iter().sum::<f32>() / offsets.len().max(1) as f32;
         let [x, y, z] = self.grid.counts;
         let mut c = BTreeMap::from([
             ("probes".to_string(), f64::from(self.grid.probes())),
@@ -692,14 +914,22 @@ impl Technique for Ddgi {
             ("probes_y".to_string(), f64::from(y)),
             ("probes_z".to_string(), f64::from(z)),
             ("probe_spacing_min".to_string(), f64::from(self.grid.spacing.min_element())),
+            ("probes_per_frame".to_string(), f64::from(self.update_count)),
             ("probe_rays_per_frame".to_string(), self.probe_rays() as f64),
+            ("probes_active".to_string(), with(PROBE_ACTIVE)),
+            ("probes_inside_geometry".to_string(), with(PROBE_INSIDE)),
+            ("probes_relocated".to_string(), relocated),
+            ("probe_offset_mean_cells".to_string(), f64::from(mean_offset)),
+            ("probe_rays_traced".to_string(), traced),
             ("probe_updates".to_string(), f64::from(self.updates)),
             ("backface_ray_fraction".to_string(), if traced > 0.0 { backface / traced } else { 0.0 }),
             ("irradiance_atlas_bytes".to_string(), self.irradiance.bytes() as f64),
             ("distance_atlas_bytes".to_string(), self.distance.bytes() as f64),
             ("probe_ray_buffer_bytes".to_string(), self.ray_data.size() as f64),
+            ("probe_state_bytes".to_string(), self.probe_states.size() as f64),
             ("gbuffer_bytes_per_pixel".to_string(), f64::from(GBUFFER_BYTES_PER_PIXEL)),
             ("direct_bytes_per_pixel".to_string(), 16.0),
+            ("reflection_bytes_per_pixel".to_string(), if self.reflection.width() > 1 { 16.0 } else { 0.0 }),
             ("output_bytes_per_pixel".to_string(), 16.0),
             ("pixels".to_string(), f64::from(self.width * self.height)),
         ]);

@@ -1,6 +1,6 @@
 // The irradiance query of DDGI, for camera pixels and probe-ray hits alike. The including shader
-// declares `probe_irradiance`, `probe_distance` and `probe_sampler` (the atlases it reads) after
-// volume.wgsl; the weighting switches and biases are constants from the host.
+// declares `probe_irradiance`, `probe_distance`, `probe_sampler` (the atlases it reads) and
+// `probe_states` after volume.wgsl; the weighting switches and biases are constants from the host.
 
 #import common/frame.wgsl
 
@@ -10,9 +10,11 @@
 // moments, and the crush of small weights that hides low-level leaks.
 fn probe_irradiance_at(p: vec3f, n: vec3f, v: vec3f) -> vec3f {
     let biased = p + n * NORMAL_BIAS + v * VIEW_BIAS;
-    let last = vec3i(PROBE_COUNTS) - 1;
+    // Outside the volume the nearest cage's probes extrapolate.
+    let first = probe_frame.scroll;
+    let last = first + vec3i(PROBE_COUNTS) - 1;
     let cell = (biased - FIRST_PROBE) / PROBE_SPACING;
-    let base = clamp(vec3i(floor(cell)), vec3i(0), max(last - 1, vec3i(0)));
+    let base = clamp(vec3i(floor(cell)), first, max(last - 1, first));
     let alpha = clamp(cell - vec3f(base), vec3f(0.0), vec3f(1.0));
     let irradiance_size = textureDimensions(probe_irradiance);
     let distance_size = textureDimensions(probe_distance);
@@ -20,9 +22,15 @@ fn probe_irradiance_at(p: vec3f, n: vec3f, v: vec3f) -> vec3f {
     var weight_sum = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
         let offset = vec3u(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let g = vec3u(min(base + vec3i(offset), last));
-        let probe = probe_index(g);
-        let position = probe_position(g);
+        let c = min(base + vec3i(offset), last);
+        let probe = cell_slot(c);
+        let state = probe_states[probe];
+        // Classification turned it off (it stands inside geometry or sees nothing near it), or it holds
+        // no light yet.
+        if (state.flags & (PROBE_ACTIVE | PROBE_VALID)) != (PROBE_ACTIVE | PROBE_VALID) {
+            continue;
+        }
+        let position = cell_position(c) + state.offset;
         let tri = select(1.0 - alpha, alpha, offset == vec3u(1u));
         let trilinear = max(tri.x, 0.001) * max(tri.y, 0.001) * max(tri.z, 0.001);
         var w = 1.0;

@@ -1,6 +1,7 @@
-// Probe update: every texel of every probe tile (gutters included) blends this frame's rays into the
-// previous atlas, E_t = α·E_{t−1} + (1 − α)·Ê_t (α = probe_frame.hysteresis), with Ê the lobe-weighted
-// mean normalised by the summed weights. Irradiance: cosine lobe, Ê = π·Σ w·L / Σ w (exact for
+// Probe update: every texel of every probe tile (gutters included) of the active probes in this frame's
+// update blends this frame's rays into the previous atlas, E_t = α·E_{t−1} + (1 − α)·Ê_t, with Ê the
+// lobe-weighted mean normalised by the summed weights and α = probe_frame.hysteresis (0 for a probe
+// never updated before); every other texel is copied, since the atlases ping-pong. Irradiance: cosine lobe, Ê = π·Σ w·L / Σ w (exact for
 // uniform radiance), back-face rays skipped. Distance: the mean and mean square of the hit distance
 // (clamped to MAX_DISTANCE) under a cosine-power lobe; texels whose summed weight is below 0.001 keep
 // their value. A gutter texel computes the interior texel it mirrors, so both hold the same value
@@ -10,6 +11,7 @@
 @group(0) @binding(1) var previous: texture_2d<f32>;
 @group(0) @binding(2) var<uniform> probe_frame: ProbeFrame;
 @group(0) @binding(3) var updated: texture_storage_2d<ATLAS_FORMAT, write>;
+@group(0) @binding(4) var<storage, read> probe_states: array<ProbeState>;
 
 struct Texel {
     probe: u32,
@@ -17,6 +19,9 @@ struct Texel {
     tile: vec2u,
     source: vec2u,
     valid: bool,
+    // Whether this frame's rays update it, and the weight of its previous value if so.
+    updated: bool,
+    hysteresis: f32,
 }
 
 fn locate(id: vec2u, interior: u32) -> Texel {
@@ -27,6 +32,11 @@ fn locate(id: vec2u, interior: u32) -> Texel {
     t.valid = tile.x < ATLAS_COLUMNS && t.probe < probe_count();
     t.tile = id % edge;
     t.source = gutter_source(t.tile, interior);
+    if t.valid {
+        let flags = probe_states[t.probe].flags;
+        t.updated = (flags & PROBE_ACTIVE) != 0u && probe_in_update(t.probe);
+        t.hysteresis = select(0.0, probe_frame.hysteresis, (flags & PROBE_BLEND) != 0u);
+    }
     return t;
 }
 
@@ -36,21 +46,23 @@ fn update_irradiance(@builtin(global_invocation_id) id: vec3u) {
     if !t.valid {
         return;
     }
-    let dir = texel_direction(t.source, IRRADIANCE_TEXELS);
-    var sum = vec3f(0.0);
-    var weight = 0.0;
-    for (var r = 0u; r < RAYS; r++) {
-        let ray = ray_data[t.probe * RAYS + r];
-        let w = max(0.0, dot(dir, probe_ray_direction(r)));
-        if ray.w >= 0.0 && w > 0.0 {
-            sum += w * ray.rgb;
-            weight += w;
-        }
-    }
     let held = probe_tile_origin(t.probe, IRRADIANCE_TEXELS) + 1u + t.source;
     var value = textureLoad(previous, held, 0).rgb;
-    if weight > 0.0 {
-        value = mix(PI * sum / weight, value, probe_frame.hysteresis);
+    if t.updated {
+        let dir = texel_direction(t.source, IRRADIANCE_TEXELS);
+        var sum = vec3f(0.0);
+        var weight = 0.0;
+        for (var r = 0u; r < RAYS; r++) {
+            let ray = ray_data[t.probe * RAYS + r];
+            let w = max(0.0, dot(dir, probe_ray_direction(r)));
+            if ray.w >= 0.0 && w > 0.0 {
+                sum += w * ray.rgb;
+                weight += w;
+            }
+        }
+        if weight > 0.0 {
+            value = mix(PI * sum / weight, value, t.hysteresis);
+        }
     }
     textureStore(updated, id.xy, vec4f(value, 1.0));
 }
@@ -61,22 +73,24 @@ fn update_distance(@builtin(global_invocation_id) id: vec3u) {
     if !t.valid {
         return;
     }
-    let dir = texel_direction(t.source, DISTANCE_TEXELS);
-    var sum = vec2f(0.0);
-    var weight = 0.0;
-    for (var r = 0u; r < RAYS; r++) {
-        let c = dot(dir, probe_ray_direction(r));
-        if c > 0.0 {
-            let w = pow(c, DISTANCE_EXPONENT);
-            let d = min(abs(ray_data[t.probe * RAYS + r].w), MAX_DISTANCE);
-            sum += w * vec2f(d, d * d);
-            weight += w;
-        }
-    }
     let held = probe_tile_origin(t.probe, DISTANCE_TEXELS) + 1u + t.source;
     var value = textureLoad(previous, held, 0).xy;
-    if weight >= 0.001 {
-        value = mix(sum / weight, value, probe_frame.hysteresis);
+    if t.updated {
+        let dir = texel_direction(t.source, DISTANCE_TEXELS);
+        var sum = vec2f(0.0);
+        var weight = 0.0;
+        for (var r = 0u; r < RAYS; r++) {
+            let c = dot(dir, probe_ray_direction(r));
+            if c > 0.0 {
+                let w = pow(c, DISTANCE_EXPONENT);
+                let d = min(abs(ray_data[t.probe * RAYS + r].w), MAX_DISTANCE);
+                sum += w * vec2f(d, d * d);
+                weight += w;
+            }
+        }
+        if weight >= 0.001 {
+            value = mix(sum / weight, value, t.hysteresis);
+        }
     }
     textureStore(updated, id.xy, vec4f(value, 0.0, 1.0));
 }

@@ -1,7 +1,14 @@
-// The probe volume of DDGI: grid, ray pattern and octahedral atlas tiles, shared by every probe pass.
-// The including shader declares `probe_frame`; the volume's shape arrives as constants from the host
-// (ddgi/mod.rs): PROBE_COUNTS, FIRST_PROBE, PROBE_SPACING, ATLAS_COLUMNS, IRRADIANCE_TEXELS and
-// DISTANCE_TEXELS (interior texels per tile edge; tiles add a one-texel gutter), RAYS, MAX_DISTANCE.
+// The probe volume of DDGI: lattice, probe states, ray pattern and octahedral atlas tiles, shared by
+// every probe pass. The including shader declares `probe_frame` (and, where it reads them,
+// `probe_states`); the volume's shape arrives as constants from the host (ddgi/mod.rs): PROBE_COUNTS,
+// FIRST_PROBE, PROBE_SPACING, ATLAS_COLUMNS, IRRADIANCE_TEXELS and DISTANCE_TEXELS (interior texels per
+// tile edge; tiles add a one-texel gutter), RAYS, MAX_DISTANCE.
+//
+// Probes stand on an infinite lattice, cell c at FIRST_PROBE + c·PROBE_SPACING (plus the probe's
+// relocation offset); the volume holds the PROBE_COUNTS cells from `probe_frame.scroll` on. A probe's
+// storage slot is its cell modulo PROBE_COUNTS, so when the volume scrolls with the camera only the
+// probes of the cells that leave it are reused (and reset) for the cells that enter; the rest keep
+// their history and their slots.
 
 #import common/sampling.wgsl
 
@@ -9,8 +16,24 @@
 struct ProbeFrame {
     // Rotation of this frame's spherical Fibonacci ray pattern.
     rotation: mat3x3f,
-    // Weight of the previous value in the blend (0 on the first update: nothing to keep).
+    // First lattice cell of the volume this frame.
+    scroll: vec3i,
+    // Weight of the previous value in the blend, for probes that have been updated before.
     hysteresis: f32,
+    // First lattice cell of the volume last frame.
+    previous_scroll: vec3i,
+    // The probes traced and updated this frame: `update_count` slots from `update_start`, wrapping.
+    update_start: u32,
+    update_count: u32,
+}
+
+// Mirrors `ProbeState` in ddgi/mod.rs.
+struct ProbeState {
+    // Relocation: from the lattice point to where the probe stands (world units).
+    offset: vec3f,
+    // PROBE_ACTIVE, PROBE_VALID, PROBE_BLEND and PROBE_INSIDE bits (constants from the host, where each
+    // is explained).
+    flags: u32,
 }
 
 fn probe_count() -> u32 {
@@ -26,8 +49,32 @@ fn probe_index(g: vec3u) -> u32 {
     return g.x + PROBE_COUNTS.x * (g.y + PROBE_COUNTS.y * g.z);
 }
 
-fn probe_position(g: vec3u) -> vec3f {
-    return FIRST_PROBE + vec3f(g) * PROBE_SPACING;
+// The storage slot of lattice cell `c`.
+fn cell_slot(c: vec3i) -> u32 {
+    let n = vec3i(PROBE_COUNTS);
+    return probe_index(vec3u(((c % n) + n) % n));
+}
+
+// The lattice cell that storage slot `slot` stands for when the volume starts at cell `scroll`.
+fn slot_cell(slot: u32, scroll: vec3i) -> vec3i {
+    let n = vec3i(PROBE_COUNTS);
+    return scroll + (((vec3i(probe_grid(slot)) - scroll) % n) + n) % n;
+}
+
+// The lattice point of cell `c` (where a probe stands before relocation).
+fn cell_position(c: vec3i) -> vec3f {
+    return FIRST_PROBE + vec3f(c) * PROBE_SPACING;
+}
+
+// Whether `slot` lies in the `count` slots from `start` (wrapping around the volume).
+fn slot_in_range(slot: u32, start: u32, count: u32) -> bool {
+    let n = probe_count();
+    return (slot + n - start) % n < count;
+}
+
+// Whether `slot` is traced and updated this frame.
+fn probe_in_update(slot: u32) -> bool {
+    return slot_in_range(slot, probe_frame.update_start, probe_frame.update_count);
 }
 
 // Direction of ray `ray` of every probe this frame.
