@@ -863,6 +863,13 @@ impl Ddgi {
         u64::from(self.update_count) * u64::from(self.rays_per_probe)
     }
 
+    /// (Probe rays that hit a back face, probe rays traced) since the technique was created, read back.
+    pub(crate) fn ray_counts(&self, ctx: &GpuContext) -> Result<(u32, u32), RenderError> {
+        let stats = readback::read_buffer(ctx, &self.ray_stats, 0, 8)?;
+        let stats = bytemuck::cast_slice::<u8, u32>(&stats);
+        Ok((stats[0], stats[1]))
+    }
+
     /// Every probe's state, read back.
     pub(crate) fn read_states(&self, ctx: &GpuContext) -> Result<Vec<ProbeState>, RenderError> {
         let bytes = readback::read_buffer(ctx, &self.probe_states, 0, self.probe_states.size())?;
@@ -897,9 +904,8 @@ impl Technique for Ddgi {
         ctx: &GpuContext,
         measured: &Measured,
     ) -> Result<BTreeMap<String, f64>, RenderError> {
-        let stats = readback::read_buffer(ctx, &self.ray_stats, 0, 8)?;
-        let stats = bytemuck::cast_slice::<u8, u32>(&stats);
-        let (backface, traced) = (f64::from(stats[0]), f64::from(stats[1]));
+        let (backface, traced) = self.ray_counts(ctx)?;
+        let (backface, traced) = (f64::from(backface), f64::from(traced));
         let states = self.read_states(ctx)?;
         let with = |flag: u32| states.iter().filter(|s| s.flags & flag != 0).count() as f64;
         let spacing = self.grid.spacing;

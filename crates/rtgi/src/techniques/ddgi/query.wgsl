@@ -2,7 +2,7 @@
 // declares `probe_irradiance`, `probe_distance`, `probe_sampler` (the atlases it reads) and
 // `probe_states` after volume.wgsl; the weighting switches and biases are constants from the host.
 
-#import common/frame.wgsl
+#import common/direct_light.wgsl
 
 // Irradiance at a surface point p with shading normal n, seen from direction v (unit, towards the
 // viewer), interpolated over the 8 probes of the cage around the biased point with the weights of the
@@ -69,6 +69,24 @@ fn probe_irradiance_at(p: vec3f, n: vec3f, v: vec3f) -> vec3f {
         weight_sum += w;
     }
     return select(vec3f(0.0), sum / weight_sum, weight_sum > 0.0);
+}
+
+// Light arriving along `dir` from what a ray of a probe or a pixel met (`hit`): at a surface, the light it
+// sends back (direct light through shadow rays, the previous probes' diffuse light, and its emission with
+// EMITTERS_IN_PROBES); on a miss, the environment with EMITTERS_IN_PROBES, else nothing (pixels and
+// probe hits sample emitters and the environment themselves then).
+fn ray_radiance(hit: Hit, dir: vec3f, rng: ptr<function, Rng>) -> vec3f {
+    if hit.t == FLT_MAX {
+        return select(vec3f(0.0), environment_radiance(dir), EMITTERS_IN_PROBES);
+    }
+    let s = hit_gsurface(surface_at(hit.triangle, hit.u, hit.v, dir), -dir, hit.t);
+    var radiance = direct_light(
+        s, offset_origin(s.position, s.geometric_normal), rng, SURFEL_AREA_SAMPLES, SURFEL_ENV_SAMPLES, true
+    );
+    if EMITTERS_IN_PROBES {
+        radiance += s.material.emission;
+    }
+    return radiance + probe_diffuse_light(s);
 }
 
 // Light the probes carry reflected by a surface's diffuse lobe towards v.

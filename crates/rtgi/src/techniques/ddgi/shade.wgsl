@@ -4,8 +4,6 @@
 // shaded at its hit like a probe ray (direct light + the probes' diffuse light), averaged in
 // `reflection` while nothing moves. Rougher surfaces get no indirect specular light (as in the paper).
 
-#import common/direct_light.wgsl
-
 @group(2) @binding(0) var output: texture_storage_2d<rgba32float, write>;
 @group(2) @binding(1) var direct: texture_2d<f32>;
 @group(2) @binding(2) var probe_irradiance: texture_2d<f32>;
@@ -27,19 +25,7 @@ fn reflected_light(s: GSurface, rng: ptr<function, Rng>) -> vec3f {
         return vec3f(0.0);
     }
     let weight = brdf_eval_specular(m, s.normal, s.view, l) * dot(s.normal, l) / pdf;
-    let hit = trace_closest(Ray(gsurface_ray_origin(s), l), 0.0, FLT_MAX);
-    if hit.t == FLT_MAX {
-        // Without EMITTERS_IN_PROBES the direct pass sampled the environment with the whole BRDF.
-        return select(vec3f(0.0), weight * environment_radiance(l), EMITTERS_IN_PROBES);
-    }
-    let y = hit_gsurface(surface_at(hit.triangle, hit.u, hit.v, l), -l, hit.t);
-    var radiance = direct_light(
-        y, offset_origin(y.position, y.geometric_normal), rng, SURFEL_AREA_SAMPLES, SURFEL_ENV_SAMPLES, true
-    );
-    if EMITTERS_IN_PROBES {
-        radiance += y.material.emission;
-    }
-    return weight * (radiance + probe_diffuse_light(y));
+    return weight * ray_radiance(trace_closest(Ray(gsurface_ray_origin(s), l), 0.0, FLT_MAX), l, rng);
 }
 
 @compute @workgroup_size(TILE, TILE)

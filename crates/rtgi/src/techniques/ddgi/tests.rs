@@ -301,13 +301,6 @@ fn the_furnace_converges_to_its_exact_radiance_through_the_probes() {
     }
 }
 
-/// (rays that hit a back face, rays traced) since the technique was created.
-fn ray_counts(ddgi: &Ddgi, ctx: &GpuContext) -> (u32, u32) {
-    let stats = readback::read_buffer(ctx, &ddgi.ray_stats, 0, 8).expect("stats");
-    let stats = bytemuck::cast_slice::<u8, u32>(&stats);
-    (stats[0], stats[1])
-}
-
 /// Cornell's two blocks hold some of an 8×8×8 grid's probes (without relocation 6.7 % of all probe
 /// rays hit back faces, measured). Relocation moves the probes near a block's faces out, so at least
 /// a third of those rays go (measured: 3.0 % remain, from the probes deeper inside than the 0.45-cell
@@ -321,7 +314,7 @@ fn relocation_moves_probes_out_of_the_blocks_within_the_limit() {
         let p = params(&[("relocation", relocation), ("classification", "false")]);
         let mut ddgi = Ddgi::new(&f.setup(&p)).expect("ddgi");
         step_frames(&mut f, &mut ddgi, 2);
-        let (back, traced) = ray_counts(&ddgi, &f.ctx);
+        let (back, traced) = ddgi.ray_counts(&f.ctx).expect("ray stats");
         fraction.push(f64::from(back) / f64::from(traced));
         let states = ddgi.read_states(&f.ctx).expect("states");
         let spacing = ddgi.grid.spacing;
@@ -361,7 +354,7 @@ fn classification_keeps_exactly_the_probes_with_a_surface_within_a_cell() {
         assert_eq!(s.flags & PROBE_ACTIVE != 0, shell, "probe {g:?}: {s:?}");
         assert_eq!(s.flags & PROBE_VALID != 0, shell, "probe {g:?}: {s:?}");
     }
-    let (_, traced) = ray_counts(&ddgi, &f.ctx);
+    let (_, traced) = ddgi.ray_counts(&f.ctx).expect("ray stats");
     assert_eq!(traced, 3 * 56 * ddgi.rays_per_probe);
     let atlas = read_atlas(&f.ctx, &ddgi.irradiance, ddgi.current());
     for (probe, t, i) in tile_texels(&ddgi.irradiance, 64) {
@@ -400,7 +393,10 @@ fn an_update_budget_walks_through_the_probes_in_turn() {
         for (probe, t, i) in tile_texels(&ddgi.irradiance, probes as u32) {
             assert_eq!(atlas[i][0] > 0.0, (probe as usize) < updated, "frame {frame} probe {probe} {t:?}");
         }
-        assert_eq!(ray_counts(&ddgi, &f.ctx).1 as usize, (frame * 10) * ddgi.rays_per_probe as usize);
+        assert_eq!(
+            ddgi.ray_counts(&f.ctx).expect("ray stats").1 as usize,
+            (frame * 10) * ddgi.rays_per_probe as usize
+        );
     }
 }
 

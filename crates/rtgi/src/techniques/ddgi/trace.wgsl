@@ -5,7 +5,6 @@
 // at MAX_DISTANCE; a back face (the probe sits inside geometry) no radiance and a negative distance,
 // shortened so the probe's visibility treats the inside as close.
 
-#import common/direct_light.wgsl
 #import common/indirect.wgsl
 
 @group(2) @binding(0) var<storage, read_write> ray_data: array<vec4f>;
@@ -40,27 +39,11 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     let origin = cell_position(slot_cell(probe, probe_frame.scroll)) + state.offset;
     let slot = probe * RAYS + ray;
     let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
-    if hit.t == FLT_MAX {
-        var sky = vec3f(0.0);
-        if EMITTERS_IN_PROBES {
-            sky = environment_radiance(dir);
-        }
-        ray_data[slot] = vec4f(sky, MAX_DISTANCE);
-        return;
-    }
-    if hits_back_face(hit.triangle, hit.u, hit.v, dir) {
+    if hit.t < FLT_MAX && hits_back_face(hit.triangle, hit.u, hit.v, dir) {
         ray_data[slot] = vec4f(0.0, 0.0, 0.0, -BACKFACE_SHORTENING * hit.t);
         atomicAdd(&ray_stats[0], 1u);
         return;
     }
-    let s = hit_gsurface(surface_at(hit.triangle, hit.u, hit.v, dir), -dir, hit.t);
     var rng = rng_new(vec2u(slot, 0u), frame.frame_counter, hash2(frame.seed, 0x64646769u));
-    var radiance = direct_light(
-        s, offset_origin(s.position, s.geometric_normal), &rng, SURFEL_AREA_SAMPLES, SURFEL_ENV_SAMPLES, true
-    );
-    if EMITTERS_IN_PROBES {
-        radiance += s.material.emission;
-    }
-    radiance += probe_diffuse_light(s);
-    ray_data[slot] = vec4f(radiance, hit.t);
+    ray_data[slot] = vec4f(ray_radiance(hit, dir, &rng), min(hit.t, MAX_DISTANCE));
 }

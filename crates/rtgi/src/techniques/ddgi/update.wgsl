@@ -15,9 +15,10 @@
 
 struct Texel {
     probe: u32,
-    // Tile texel (with gutter) and the interior texel it holds.
+    // Tile texel (with gutter), the interior texel it holds, and where that lives in the atlas.
     tile: vec2u,
     source: vec2u,
+    held: vec2u,
     valid: bool,
     // Whether this frame's rays update it, and the weight of its previous value if so.
     updated: bool,
@@ -32,6 +33,7 @@ fn locate(id: vec2u, interior: u32) -> Texel {
     t.valid = tile.x < ATLAS_COLUMNS && t.probe < probe_count();
     t.tile = id % edge;
     t.source = gutter_source(t.tile, interior);
+    t.held = probe_tile_origin(t.probe, interior) + 1u + t.source;
     if t.valid {
         let flags = probe_states[t.probe].flags;
         t.updated = (flags & PROBE_ACTIVE) != 0u && probe_in_update(t.probe);
@@ -46,8 +48,7 @@ fn update_irradiance(@builtin(global_invocation_id) id: vec3u) {
     if !t.valid {
         return;
     }
-    let held = probe_tile_origin(t.probe, IRRADIANCE_TEXELS) + 1u + t.source;
-    var value = textureLoad(previous, held, 0).rgb;
+    var value = textureLoad(previous, t.held, 0).rgb;
     if t.updated {
         let dir = texel_direction(t.source, IRRADIANCE_TEXELS);
         var sum = vec3f(0.0);
@@ -73,8 +74,7 @@ fn update_distance(@builtin(global_invocation_id) id: vec3u) {
     if !t.valid {
         return;
     }
-    let held = probe_tile_origin(t.probe, DISTANCE_TEXELS) + 1u + t.source;
-    var value = textureLoad(previous, held, 0).xy;
+    var value = textureLoad(previous, t.held, 0).xy;
     if t.updated {
         let dir = texel_direction(t.source, DISTANCE_TEXELS);
         var sum = vec2f(0.0);
