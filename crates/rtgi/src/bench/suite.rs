@@ -457,6 +457,7 @@ warmup = 5
         assert_eq!(
             names,
             [
+                "ddgi-formats.toml",
                 "ddgi.toml",
                 "gpu.toml",
                 "igi-cost.toml",
