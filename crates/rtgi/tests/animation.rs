@@ -268,11 +268,13 @@ fn moved_lights_and_sun_render_like_a_fresh_renderer_for_every_technique() {
             let relative = (mean(&frame) - mean(&expected)).abs() / mean(&expected);
             eprintln!("{name} {technique}: largest difference {difference:e}, mean difference {relative:e}");
             if motion == Motion::Temporal {
-                // Measured on lavapipe (ddgi, 40 frames after the move): cornell-spot largest 6.1e-6,
-                // mean 2.5e-6; atrium identical. A probe state left from the old pose would show as a
-                // difference of the light's move (~0.1 on these scenes).
+                // Measured (ddgi, 40 frames after the move), cornell-spot largest / mean: lavapipe
+                // 6.1e-6 / 2.5e-6, an NVIDIA H100 2.7e-5 / 6.2e-6 (its conversion to the f16 atlas
+                // truncates, so the blend stalls up to a whole f16 step from its target, on the side
+                // of the old pose); atrium identical on both. A probe state left from the old pose
+                // would show as a difference of the light's move (~0.1 on these scenes).
                 assert!(
-                    difference < 2e-5 && relative < 1e-5,
+                    difference < 5e-5 && relative < 1.5e-5,
                     "{name} {technique}: {difference:e}, {relative:e}"
                 );
             } else {

@@ -12,8 +12,6 @@ pub enum GpuError {
         advice(skipped)
     )]
     NoAdapter { backends: String, skipped: Vec<String> },
-    #[error("could not create a device on '{adapter}': {message}")]
-    Device { adapter: String, message: String },
     /// The scene or a resource is larger than the device allows; the message names the limit.
     #[error("{0}")]
     OverLimit(String),
@@ -274,19 +272,43 @@ impl GpuContext {
             let info = a.get_info();
             (device_rank(info.device_type), u32::from(info.backend != wgpu::Backend::Vulkan))
         });
-        let adapter = usable
-            .into_iter()
-            .next()
-            .ok_or_else(|| GpuError::NoAdapter { backends: flag_names(backends.iter_names()), skipped })?;
-        let info = adapter.get_info();
-        let summary = AdapterSummary {
-            name: info.name.clone(),
-            backend: format!("{:?}", info.backend),
-            device_type: format!("{:?}", info.device_type),
-            driver: info.driver.clone(),
-            driver_info: info.driver_info.clone(),
-        };
+        // An adapter whose device cannot be created (NVIDIA's headless EGL: "Parent device is lost") is
+        // skipped like an unfit one, so the next usable adapter gets its turn.
+        for adapter in usable {
+            match Self::open(&adapter) {
+                Ok((device, queue, has_timestamps)) => {
+                    let info = adapter.get_info();
+                    let summary = AdapterSummary {
+                        name: info.name.clone(),
+                        backend: format!("{:?}", info.backend),
+                        device_type: format!("{:?}", info.device_type),
+                        driver: info.driver.clone(),
+                        driver_info: info.driver_info.clone(),
+                    };
+                    return Ok(GpuContext {
+                        adapter,
+                        device,
+                        queue,
+                        summary,
+                        has_timestamps,
+                        shader_compilations: Default::default(),
+                    });
+                }
+                Err(message) => {
+                    let info = adapter.get_info();
+                    skipped.push(format!(
+                        "'{}' ({:?}, {:?}): could not create a device: {message}",
+                        info.name, info.backend, info.device_type
+                    ));
+                }
+            }
+        }
+        Err(GpuError::NoAdapter { backends: flag_names(backends.iter_names()), skipped })
+    }
 
+    /// The device and queue of `adapter`, with every optional feature rtgi can use that it offers, and
+    /// whether timestamps are among them.
+    fn open(adapter: &wgpu::Adapter) -> Result<(wgpu::Device, wgpu::Queue, bool), String> {
         let available = adapter.features();
         // Every optional feature techniques may declare (`features::Need`) is requested where offered;
         // none is required, so `features::require` reports what a technique misses instead.
@@ -307,15 +329,8 @@ impl GpuContext {
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,
         }))
-        .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
-        Ok(GpuContext {
-            adapter,
-            device,
-            queue,
-            summary,
-            has_timestamps,
-            shader_compilations: Default::default(),
-        })
+        .map_err(|e| e.to_string())?;
+        Ok((device, queue, has_timestamps))
     }
 
     pub(crate) fn count_shader_compilation(&self) {

@@ -218,11 +218,11 @@ fn compare(
             assert!(want.is_none(), "{label}: a ray pointing away from the scene hit {want:?}");
         }
         let boundary = rounding_may_decide && r.kind == RayKind::Vertex && rounding_decides(g.hit(), want);
-        if boundary && (compare_hits(g.hit(), want).is_err() || (g.occluded != 0) != want_any) {
+        if boundary && (compare_hits(g.hit(), want, &r.ray).is_err() || (g.occluded != 0) != want_any) {
             report.boundary += 1;
             continue;
         }
-        match compare_hits(g.hit(), want) {
+        match compare_hits(g.hit(), want, &r.ray) {
             Ok(tie) => report.ties += usize::from(tie),
             Err(e) => {
                 report.closest_mismatches += 1;
@@ -655,7 +655,11 @@ fn bvh_gpu_matches_cpu_on_large_mesh() {
         for (i, r) in out.iter().enumerate().step_by(997) {
             let (ray, tmin, tmax) = rays[i];
             let want = fma.closest(&bvh, &ray, tmin, tmax, |_, _, _| true);
-            assert!(compare_hits(r.hit(), want).is_ok(), "{name} ray {i}: GPU {:?}, CPU {want:?}", r.hit());
+            assert!(
+                compare_hits(r.hit(), want, &ray).is_ok(),
+                "{name} ray {i}: GPU {:?}, CPU {want:?}",
+                r.hit()
+            );
         }
         eprintln!(
             "GPU large: closest-hit {name}: {} rays ({hits} hits) in {:.1} ms = {:.2} Mrays/s",
