@@ -23,6 +23,19 @@ pub enum ParamKind {
     Size2 {
         max: u32,
     },
+    /// A 3-D grid's counts: `N` along its longest axis (the others follow the shape it covers) or
+    /// `XxYxZ` exactly; every count in `min..=max`.
+    GridCounts {
+        min: u32,
+        max: u32,
+    },
+}
+
+/// The value of a [`ParamKind::GridCounts`] parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridCounts {
+    AlongLongest(u32),
+    Exact([u32; 3]),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,6 +53,7 @@ pub enum ParamValue {
     Bool(bool),
     Choice(String),
     Size2(u32, u32),
+    GridCounts(GridCounts),
 }
 
 impl fmt::Display for ParamValue {
@@ -50,6 +64,8 @@ impl fmt::Display for ParamValue {
             ParamValue::Bool(v) => write!(f, "{v}"),
             ParamValue::Choice(v) => write!(f, "{v}"),
             ParamValue::Size2(w, h) => write!(f, "{w}x{h}"),
+            ParamValue::GridCounts(GridCounts::AlongLongest(n)) => write!(f, "{n}"),
+            ParamValue::GridCounts(GridCounts::Exact([x, y, z])) => write!(f, "{x}x{y}x{z}"),
         }
     }
 }
@@ -62,6 +78,7 @@ impl fmt::Display for ParamKind {
             ParamKind::Bool => write!(f, "bool"),
             ParamKind::Choice(c) => write!(f, "one of {}", c.join("|")),
             ParamKind::Size2 { max } => write!(f, "WxH up to {max}"),
+            ParamKind::GridCounts { min, max } => write!(f, "N or XxYxZ, each {min}..={max}"),
         }
     }
 }
@@ -116,6 +133,26 @@ impl ParamSpec {
                     return Err(format!("{name}: {w}x{h} exceeds {max}x{max}"));
                 }
                 Ok(ParamValue::Size2(w, h))
+            }
+            ParamKind::GridCounts { min, max } => {
+                let parts: Vec<&str> = text.split(['x', 'X']).map(str::trim).collect();
+                let mut counts = Vec::with_capacity(3);
+                for part in &parts {
+                    let n: u32 = part
+                        .parse()
+                        .map_err(|_| format!("{name}: '{text}': '{part}' is not a whole number"))?;
+                    if n < min || n > max {
+                        return Err(format!("{name}: {n} in '{text}' is outside {min}..={max}"));
+                    }
+                    counts.push(n);
+                }
+                match counts[..] {
+                    [n] => Ok(ParamValue::GridCounts(GridCounts::AlongLongest(n))),
+                    [x, y, z] => Ok(ParamValue::GridCounts(GridCounts::Exact([x, y, z]))),
+                    _ => Err(format!(
+                        "{name}: '{text}' is neither a count (e.g. 8) nor three counts XxYxZ (e.g. 32x8x32)"
+                    )),
+                }
             }
         }
     }
@@ -203,6 +240,13 @@ impl ParamValues {
         }
     }
 
+    pub fn grid_counts(&self, name: &str) -> GridCounts {
+        match self.values.get(name) {
+            Some(ParamValue::GridCounts(c)) => *c,
+            other => panic!("parameter '{name}' is not declared grid counts (found {other:?})"),
+        }
+    }
+
     /// All values as strings, in name order (for stats and cache keys).
     pub fn to_map(&self) -> BTreeMap<String, String> {
         self.values.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
@@ -227,6 +271,7 @@ mod tests {
         ParamSpec { name: "x", kind: ParamKind::Float { min: 0.0, max: 1.0 }, default: "0.5", doc: "" },
         ParamSpec { name: "mode", kind: ParamKind::Choice(&["a", "b"]), default: "a", doc: "" },
         ParamSpec { name: "cells", kind: ParamKind::Size2 { max: 16 }, default: "4x4", doc: "" },
+        ParamSpec { name: "grid", kind: ParamKind::GridCounts { min: 2, max: 64 }, default: "8", doc: "" },
     ];
 
     #[test]
@@ -236,6 +281,10 @@ mod tests {
         assert_eq!(v.float("x"), 0.5);
         assert_eq!(v.choice("mode"), "a");
         assert_eq!(v.size2("cells"), (4, 4));
+        assert_eq!(v.grid_counts("grid"), GridCounts::AlongLongest(8));
+        let v = ParamValues::from_settings("t", SPECS, &[("grid".into(), "32x8X32".into())]).unwrap();
+        assert_eq!(v.grid_counts("grid"), GridCounts::Exact([32, 8, 32]));
+        assert_eq!(v.to_map()["grid"], "32x8x32");
     }
 
     #[test]
@@ -243,7 +292,11 @@ mod tests {
         let e = ParamValues::from_settings("t", SPECS, &[("n".into(), "9".into())]).unwrap_err();
         assert!(e.contains("n") && e.contains("1..=8"), "{e}");
         let e = ParamValues::from_settings("t", SPECS, &[("zz".into(), "1".into())]).unwrap_err();
-        assert!(e.contains("zz") && e.contains("n, x, mode, cells"), "{e}");
+        assert!(e.contains("zz") && e.contains("n, x, mode, cells, grid"), "{e}");
+        for bad in ["1", "65", "8x8", "2x2x2x2", "8xx8", "ax8x8", "8x1x8"] {
+            let e = ParamValues::from_settings("t", SPECS, &[("grid".into(), bad.into())]).unwrap_err();
+            assert!(e.contains("grid") && e.contains(bad), "{bad}: {e}");
+        }
         let e = ParamValues::from_settings("t", SPECS, &[("mode".into(), "c".into())]).unwrap_err();
         assert!(e.contains("a, b"), "{e}");
         assert!(parse_size("0x0").is_err());

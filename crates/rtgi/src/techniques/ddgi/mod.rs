@@ -32,7 +32,7 @@ use crate::frame::{GBUFFER_BYTES_PER_PIXEL, OUTPUT_FORMAT};
 use crate::gpu::features::{Need, has};
 use crate::gpu::scene::{oct_decode, oct_encode};
 use crate::gpu::{GpuContext, Profiler, readback};
-use crate::params::{ParamKind, ParamSpec};
+use crate::params::{GridCounts, ParamKind, ParamSpec};
 use crate::scene::Aabb;
 use crate::shaders::Defines;
 use crate::techniques::RenderError;
@@ -66,9 +66,9 @@ const MIN_SURFACE_DISTANCE: f32 = 0.1;
 const DDGI_PARAMS: [ParamSpec; 28] = with_direct_params![
     ParamSpec {
         name: "probe_count",
-        kind: ParamKind::Int { min: 2, max: 64 },
+        kind: ParamKind::GridCounts { min: 2, max: 64 },
         default: "8",
-        doc: "probes along the scene's longest axis; the other axes get about the same spacing (at least 2 probes), all centred in their cells of the scene's bounds",
+        doc: "probes along the scene's longest axis, the other axes getting about the same spacing (at least 2 probes), or XxYxZ probes exactly (e.g. 32x8x32); all centred in their cells of the scene's bounds",
     },
     ParamSpec {
         name: "volume",
@@ -269,6 +269,12 @@ impl ProbeGrid {
         let extent = (bounds.max - bounds.min).max(Vec3::splat(1e-3));
         let cell = extent.max_element() / along_longest as f32;
         let counts = extent.to_array().map(|e| ((e / cell).round() as u32).clamp(2, along_longest.max(2)));
+        Self::with_counts(bounds, counts)
+    }
+
+    /// `counts` probes over `bounds`, each centred in its cell.
+    pub fn with_counts(bounds: Aabb, counts: [u32; 3]) -> ProbeGrid {
+        let extent = (bounds.max - bounds.min).max(Vec3::splat(1e-3));
         let spacing = extent / Vec3::from(counts.map(|c| c as f32));
         ProbeGrid { counts, first: bounds.min + spacing * 0.5, spacing }
     }
@@ -523,7 +529,10 @@ impl Ddgi {
     pub(crate) fn new(setup: &TechniqueSetup) -> Result<Self, RenderError> {
         let ctx = setup.ctx;
         let p = setup.params;
-        let mut grid = ProbeGrid::fit(setup.gpu_scene.bounds(), p.int("probe_count") as u32);
+        let mut grid = match p.grid_counts("probe_count") {
+            GridCounts::AlongLongest(n) => ProbeGrid::fit(setup.gpu_scene.bounds(), n),
+            GridCounts::Exact(counts) => ProbeGrid::with_counts(setup.gpu_scene.bounds(), counts),
+        };
         let follows_camera = p.choice("volume") == "camera";
         let spacing = p.float("probe_spacing") as f32;
         if follows_camera && spacing > 0.0 {

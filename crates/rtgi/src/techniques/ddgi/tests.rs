@@ -132,6 +132,24 @@ fn the_grid_puts_probes_on_both_sides_of_the_two_rooms_wall() {
     assert!(heights.count() >= 2, "{grid:?}");
 }
 
+/// `probe_count=XxYxZ` lays exactly those counts over the bounds, each probe centred in its cell (the
+/// paper's 32×8×32 on atrium, whose longest-axis fit would give 32×9×16).
+#[test]
+fn exact_probe_counts_cover_the_bounds_cell_by_cell() {
+    let scene = crate::scene::builtin::build("atrium", &[]).expect("scene");
+    let bounds = scene.bounds();
+    let p = params(&[("probe_count", "32x8x32")]);
+    let GridCounts::Exact(counts) = p.grid_counts("probe_count") else { panic!("not exact counts") };
+    let grid = ProbeGrid::with_counts(bounds, counts);
+    assert_eq!(grid.counts, [32, 8, 32]);
+    assert_eq!(grid.probes(), 8192);
+    let (first, last) = (grid.position([0, 0, 0]), grid.position([31, 7, 31]));
+    let extent = bounds.max - bounds.min;
+    assert!(((first - bounds.min) - grid.spacing * 0.5).abs().max_element() < 1e-4 * extent.max_element());
+    assert!(((bounds.max - last) - grid.spacing * 0.5).abs().max_element() < 1e-4 * extent.max_element());
+    assert_ne!(ProbeGrid::fit(bounds, 32).counts, [32, 8, 32]);
+}
+
 fn params(settings: &[(&str, &str)]) -> ParamValues {
     let settings: Vec<(String, String)> =
         settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
