@@ -458,6 +458,7 @@ warmup = 5
             names,
             [
                 "ddgi-formats.toml",
+                "ddgi-gpu.toml",
                 "ddgi.toml",
                 "gpu.toml",
                 "igi-cost.toml",

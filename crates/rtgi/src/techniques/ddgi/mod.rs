@@ -58,6 +58,11 @@ const IRRADIANCE_FORMATS: &[&str] = &["rgba16float", "rgba32float", "rg11b10uflo
 /// Rays per probe of the relocation and classification pass (`CLASSIFY_RAYS` in state.wgsl; RTXGI's
 /// fixed rays are 32 too).
 const CLASSIFY_RAYS: u32 = 32;
+/// Frames the probe state pass relocates and classifies after the probes were created, the geometry
+/// moved or the volume scrolled. One frame resolves what its rays see (out of geometry, away from the
+/// nearest surface or back to the lattice point); a move can bring another surface into view, so a few
+/// frames let such chains settle (measured on cornell and atrium: no probe changes after the 9th frame).
+const SETTLE_FRAMES: u32 = 16;
 /// A probe stands inside geometry when more than this fraction of its classification rays hit back faces.
 const BACKFACE_THRESHOLD: f32 = 0.25;
 /// How close to a surface relocation lets a probe stand, as a fraction of the smallest probe spacing.
@@ -223,7 +228,10 @@ pub struct ProbeFrame {
     pub previous_scroll: [i32; 3],
     pub update_start: u32,
     pub update_count: u32,
-    pub _pad: [u32; 3],
+    /// 1 when the probe state pass traces its classification rays this frame (relocation and
+    /// classification), 0 when the probes keep the states they settled into.
+    pub classify: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Mirrors `ProbeState` in volume.wgsl.
@@ -487,6 +495,10 @@ pub(crate) struct Ddgi {
     follows_camera: bool,
     /// First lattice cell of the volume in the last frame (None before the first).
     scroll: Option<[i32; 3]>,
+    /// The scene geometry the probe states were settled for.
+    geometry_version: Option<u64>,
+    /// Frames the probe state pass still relocates and classifies ([`SETTLE_FRAMES`]).
+    settle_frames_left: u32,
     /// Probes traced and updated per frame, and the first slot of the next frame's subset.
     update_count: u32,
     next_update_start: u32,
@@ -782,6 +794,8 @@ impl Ddgi {
             grid,
             follows_camera,
             scroll: None,
+            geometry_version: None,
+            settle_frames_left: 0,
             update_count,
             next_update_start: 0,
             probe_states,
@@ -819,6 +833,17 @@ impl Ddgi {
         profiler: &mut Profiler,
     ) -> Result<(), RenderError> {
         let scroll = if self.follows_camera { self.grid.scroll_for(fc.view.camera.position) } else { [0; 3] };
+        // Relocation and classification depend on the geometry around each probe alone: they run while
+        // the probes settle after creation, after the geometry moved and after the volume scrolled
+        // (fresh probes entered), and are skipped once settled.
+        if self.geometry_version != Some(fc.gpu_scene.geometry_version)
+            || self.scroll.is_some_and(|s| s != scroll)
+        {
+            self.geometry_version = Some(fc.gpu_scene.geometry_version);
+            self.settle_frames_left = SETTLE_FRAMES;
+        }
+        let classify = self.settle_frames_left > 0;
+        self.settle_frames_left = self.settle_frames_left.saturating_sub(1);
         let r = ray_rotation(self.seed, fc.view.frame_counter);
         let uniform = ProbeFrame {
             rotation: [r.x_axis, r.y_axis, r.z_axis].map(|c| [c.x, c.y, c.z, 0.0]),
@@ -827,7 +852,8 @@ impl Ddgi {
             previous_scroll: self.scroll.unwrap_or(scroll),
             update_start: self.next_update_start,
             update_count: self.update_count,
-            _pad: [0; 3],
+            classify: u32::from(classify),
+            _pad: [0; 2],
         };
         fc.ctx.queue.write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniform));
         let groups = crate::gpu::dispatch::workgroups_for(self.grid.probes(), 1, self.max_workgroups);

@@ -4,10 +4,13 @@
 //   CLASSIFY_RAYS rays on a fixed spherical Fibonacci pattern (fixed, so a probe's decision does not
 //   jitter with the rotating pattern of the irradiance rays): a probe most of whose rays hit back faces
 //   stands inside geometry and moves through the nearest back face; one closer than MIN_SURFACE_DISTANCE
-//   to a surface steps away from it; one clear of everything drifts back towards its lattice point.
+//   to a surface steps away from it; one clear of everything (by twice that distance: a dead band
+//   against oscillation) drifts back towards its lattice point.
 //   Moves that would leave RELOCATION_LIMIT cell fractions (per axis) are refused. A probe inside
 //   geometry, or with no surface in the cells it interpolates (within one spacing of its lattice
 //   point), is switched off: not traced, not updated, not interpolated;
+//   Both run only on the frames the host asks for (`probe_frame.classify`: while the probes settle after
+//   creation, a geometry change or a scroll); otherwise the probes keep their offsets and flags;
 // - the VALID and BLEND bits follow from whether this frame's update will write the probe.
 
 #import common/scene.wgsl
@@ -35,7 +38,8 @@ fn main(
     }
     let lattice_point = cell_position(cell);
     let origin = lattice_point + state.offset;
-    if RELOCATION || CLASSIFICATION {
+    let classify = (RELOCATION || CLASSIFICATION) && probe_frame.classify != 0u;
+    if classify {
         let dir = spherical_fibonacci(lane, CLASSIFY_RAYS);
         let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
         var d = hit.t;
@@ -48,7 +52,7 @@ fn main(
     if lane != 0u {
         return;
     }
-    if RELOCATION || CLASSIFICATION {
+    if classify {
         var back_faces = 0u;
         var nearest_back = FLT_MAX;
         var nearest_back_dir = vec3f(0.0);
@@ -88,11 +92,13 @@ fn main(
                 moved += nearest_back_dir * (nearest_back + MIN_SURFACE_DISTANCE);
             } else if nearest_front < MIN_SURFACE_DISTANCE {
                 // Towards the most open direction when it leads away from the nearest surface (out of
-                // corners), else straight away from that surface.
+                // corners), else straight away from that surface; to 1.5× the minimum distance, inside
+                // the dead band below, so the next frame's rays (which pass the nearest point of the
+                // surface at other angles) do not pull it straight back.
                 let away = select(-nearest_front_dir, farthest_front_dir, dot(nearest_front_dir, farthest_front_dir) <= 0.0);
-                moved += away * (MIN_SURFACE_DISTANCE - nearest_front);
-            } else {
-                let back = min(length(state.offset), nearest_front - MIN_SURFACE_DISTANCE);
+                moved += away * (1.5 * MIN_SURFACE_DISTANCE - nearest_front);
+            } else if nearest_front > 2.0 * MIN_SURFACE_DISTANCE {
+                let back = min(length(state.offset), nearest_front - 2.0 * MIN_SURFACE_DISTANCE);
                 if back > 0.0 {
                     moved -= normalize(state.offset) * back;
                 }

@@ -25,6 +25,8 @@ struct ProbeFrame {
     // The probes traced and updated this frame: `update_count` slots from `update_start`, wrapping.
     update_start: u32,
     update_count: u32,
+    // 1: the probe state pass relocates and classifies this frame; 0: the probes keep their states.
+    classify: u32,
 }
 
 // Mirrors `ProbeState` in ddgi/mod.rs.
