@@ -2,28 +2,40 @@
 """Prints docs/measurements/ddgi.md (issue 12) from a run of benches/ddgi.toml.
 
     cargo build --release -p rtgi-cli && python3 scripts/measure-ddgi.py     # about 20 min on lavapipe
+    python3 scripts/measure-ddgi.py --size 256x256 --doc ddgi-256             # the same suite at 256x256
+    python3 scripts/measure-ddgi.py --suite benches/ddgi-gpu.toml --doc ddgi-gpu --no-lag   # 1080p, a GPU
 
 Runs `rtgi bench benches/ddgi.toml --out $SCRATCH --images` (default target/measure/ddgi), copies its
 report (report.md, report.html, the Pareto SVGs, results.json) to docs/measurements/ddgi-bench/, and
 adds what the bench does not compute: the light in two-rooms' dark room (`rtgi compare --region` of
 each cell's kept image against the reference), DDGI's per-pass split and its lag after a light moves.
-Environment and shared helpers: scripts/measure_common.py.
+Options: --suite FILE (default benches/ddgi.toml), --size WxH (run the suite at this size instead of its
+own), --doc NAME (write docs/measurements/NAME.md and NAME-bench/; default ddgi), --no-lag (skip the lag
+runs), --allow-dirty. Environment and shared helpers: scripts/measure_common.py.
 """
+import argparse
 import json
 import math
+import re
 import shutil
 import subprocess
 import sys
+import tomllib
 
 sys.dont_write_bytecode = True
 import measure_common as m  # noqa: E402
 
 OUT = m.scratch("ddgi")
 DOC = m.ROOT / "docs/measurements"
-SUITE = m.ROOT / "benches/ddgi.toml"
-# The floor of two-rooms' dark room (the camera's room) at 128x128: every pixel below the doorway's
-# sill line shows room 2's floor, which only light through the doorway may reach.
-DARK_FLOOR = "0,100,128,28"
+
+
+def dark_floor(width, height):
+    """The floor of two-rooms' dark room (the camera's room) as `rtgi compare --region`: at 128x128 the
+    rows 100-127, every pixel below the doorway's sill line, show room 2's floor, which only light
+    through the doorway may reach. The camera's vertical field of view is fixed, so at other sizes the
+    same rows scale with the height and wider images show more of the floor at the sides."""
+    top = round(100 * height / 128)
+    return f"0,{top},{width},{height - top}"
 
 
 def label(cell):
@@ -94,38 +106,92 @@ def lag_section(rtgi):
     return lines + [""]
 
 
+PROBE_PASSES = ("probe state", "probe trace", "probe irradiance update", "probe distance update",
+                "probe sampling")
+
+
+def paper_grid_section(cells):
+    """The paper's performance configuration (cells labelled "... paper grid"): the probe passes' GPU
+    time per frame, against the paper's 2.6 ms (RTX 2080 Ti, 1080p, 32x8x32 probes x 64 rays)."""
+    grid = [c for c in cells if "paper grid" in c["series"]]
+    if not grid:
+        return []
+    lines = ["## The paper's configuration: probe passes per frame", "",
+             "Probe state (relocation, classification) + probe trace (rays, their hits shaded with direct light "
+             "and the previous probes) + irradiance and distance updates + sampling at every pixel, GPU time per "
+             "frame; the paper reports 2.6 ms for its diffuse GI at 1920×1080 with 32×8×32 probes × 64 rays on "
+             "an RTX 2080 Ti (1.5–1.66 G rays/s). Rays/s counts the rays of the active probes (classification "
+             "leaves the others untraced) over the probe trace pass, which also shades their hits.", "",
+             "| cell | scene | probes (active) | probe passes ms | trace ms | probe rays/frame | "
+             "G rays/s | frame ms |", "|---|---|---|---|---|---|---|---|"]
+    for c in grid:
+        passes = {p["name"]: p["ms_per_frame"] for p in c["passes"]}
+        probe_ms = sum(passes.get(n, 0.0) for n in PROBE_PASSES)
+        k = c["counters"]
+        rays = k["probe_rays_per_frame"] * k["probes_active"] / k["probes"]
+        trace = passes.get("probe trace", float("nan"))
+        lines.append(f"| {label(c)} | {c['scene']} | {k['probes']:.0f} "
+                     f"({k['probes_active']:.0f}) | {probe_ms:.3f} | {trace:.3f} | {rays:.0f} | "
+                     f"{rays / trace / 1e6:.2f} | {c['frame_ms']:.2f} |")
+    return lines + [""]
+
+
 def main():
-    m.refuse_dirty_tree("--allow-dirty" in sys.argv, "measure-ddgi.py")
+    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    args.add_argument("--suite", default="benches/ddgi.toml")
+    args.add_argument("--size", help="WxH: run the suite at this size instead of its own")
+    args.add_argument("--doc", default="ddgi")
+    args.add_argument("--no-lag", action="store_true")
+    args.add_argument("--allow-dirty", action="store_true")
+    args = args.parse_args()
+    m.refuse_dirty_tree(args.allow_dirty, "measure-ddgi.py")
     rtgi = m.rtgi_binary()
     if OUT.exists():
         shutil.rmtree(OUT)
-    print("running benches/ddgi.toml ...", flush=True)
-    subprocess.run([str(rtgi), "bench", str(SUITE), "--out", str(OUT), "--images"], check=True)
+    OUT.mkdir(parents=True)
+    suite_file = m.ROOT / args.suite
+    suite_text = suite_file.read_text()
+    suite = tomllib.loads(suite_text)
+    if args.size:
+        suite_text = re.sub(r"(?m)^sizes = .*$", f'sizes = ["{args.size}"]', suite_text)
+        suite_file = OUT / f"{suite_file.stem}-{args.size}.toml"
+        suite_file.write_text(suite_text)
+    size = args.size or suite["sizes"][0]
+    width, height = (int(v) for v in size.split("x"))
+    print(f"running {args.suite} at {size} ...", flush=True)
+    subprocess.run([str(rtgi), "bench", str(suite_file), "--out", str(OUT), "--images"], check=True)
     results = json.loads((OUT / "results.json").read_text())
-    bench_doc = DOC / "ddgi-bench"
+    bench_doc = DOC / f"{args.doc}-bench"
     if bench_doc.exists():
         shutil.rmtree(bench_doc)
     bench_doc.mkdir(parents=True)
     for f in OUT.iterdir():
-        if f.is_file():
+        if f.is_file() and f.suffix != ".toml":
             shutil.copy(f, bench_doc / f.name)
     cells = [c for c in results["cells"] if c["error"]]
     adapter = results["adapters"][0]
+    cpu = adapter.get("device_type") == "Cpu"
+    spp = {sc["scene"]: sc.get("spp", suite["reference"]["spp"]) for sc in suite["scenes"]}
+    ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
+    command = "python3 scripts/measure-ddgi.py" + "".join(
+        f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
     lines = [
-        "# DDGI (issue 12): measurements", "",
-        f"Printed by `python3 scripts/measure-ddgi.py` from `rtgi bench benches/ddgi.toml` at commit "
-        f"`{results['rtgi']['commit']}` on {m.adapter_text(adapter)}, "
-        "2 CPU cores. The bench's own report (Pareto plots, every cell with thumbnails and error maps) is in "
-        "[`ddgi-bench/`](ddgi-bench/report.md).", "",
-        "Each cell: a fresh renderer, `warmup` frames (100 for DDGI: its probes converge; a camera cut does not "
-        "clear them), then 3 measured frames, each after a cut (no accumulation), compared with the path-traced "
-        "full-GI reference (256 spp; atrium 128). ms/frame is lavapipe's per-frame GPU time of the whole "
-        "frame (G-buffer included): compare techniques with each other, not with GPU figures.", "",
+        f"# DDGI (issue 12): measurements at {width}×{height}", "",
+        f"Printed by `{command}` from `rtgi bench {args.suite}`"
+        + (f" at {size}" if args.size else "") + f" at commit `{results['rtgi']['commit']}` on "
+        f"{m.adapter_text(adapter)}" + (", 2 CPU cores" if cpu else "") + ". The bench's own report (Pareto "
+        f"plots, every cell with thumbnails and error maps) is in [`{args.doc}-bench/`]({args.doc}-bench/report.md).",
+        "",
+        f"Each cell: a fresh renderer, `warmup` frames (100 for DDGI: its probes converge; a camera cut does not "
+        f"clear them), then {suite.get('frames', 8)} measured frames, each after a cut (no accumulation), the "
+        f"first {suite.get('error_frames', 4)} compared with the path-traced full-GI reference (spp: {ref_spp}). "
+        "ms/frame is the per-frame GPU time of the whole frame (G-buffer included)"
+        + (" on lavapipe: compare techniques with each other, not with GPU figures." if cpu else "."), "",
     ]
 
     for scene in dict.fromkeys(c["scene"] for c in cells):
         sc = [c for c in cells if c["scene"] == scene]
-        lines += [f"## {scene} (128×128)", "",
+        lines += [f"## {scene} ({width}×{height})", "",
                   "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time |", "|---|---|---|---|---|"]
         for c in sc:
             p = path_flip_at(sc, c["frame_ms"])
@@ -134,12 +200,13 @@ def main():
                          f"{c['error']['rel_mse']:.5f} | {at} |")
         lines.append("")
         ddgi = next((c for c in sc if c["series"] == "ddgi" and c["sweep"].get("rays") == "64"), None)
+        ddgi = ddgi or next((c for c in sc if c["series"] == "ddgi"), None)
         igi = next((c for c in sc if c["technique"] == "igi" and c["sweep"].get("vpls") == "1024"), None)
         if ddgi:
             split = ", ".join(f"{p['name']} {p['ms_per_frame']:.1f}" for p in ddgi["passes"])
             k = ddgi["counters"]
             lines.append(
-                f"DDGI (64 rays) per pass, ms/frame: {split}. {k['probes']:.0f} probes "
+                f"{label(ddgi)} per pass, ms/frame: {split}. {k['probes']:.0f} probes "
                 f"({k['probes_x']:.0f}×{k['probes_y']:.0f}×{k['probes_z']:.0f}), "
                 f"{k['probe_rays_per_frame']:.0f} probe rays per frame at "
                 f"{k['probe_rays_per_second'] / 1e6:.2f} M rays/s (shading shadow rays not counted), atlases "
@@ -153,23 +220,28 @@ def main():
     # The leak ladder: light on the dark room's floor.
     two = [c for c in cells if c["scene"] == "two-rooms" and c.get("image_file")]
     if two:
+        region = dark_floor(width, height)
         ref_exr = OUT / "two-rooms-reference.exr"
-        m.run([rtgi, "reference", "--scene", "two-rooms", "--size", "128x128", "--spp", "256", "--out", ref_exr])
+        m.run([rtgi, "reference", "--scene", "two-rooms", "--size", size, "--spp", spp["two-rooms"],
+               "--out", ref_exr])
         lines += ["## Leaks: light on two-rooms' dark floor", "",
-                  f"Mean luminance of the dark room's floor (pixels {DARK_FLOOR}: x, y, w, h) against the "
+                  f"Mean luminance of the dark room's floor (pixels {region}: x, y, w, h) against the "
                   "reference's; light reaches it only through the doorway. The ladder adds the paper's "
                   "weights one at a time, then RTXGI's probe relocation and classification (the default "
                   "`ddgi` cells).", "",
                   "| cell | floor / reference | FLIP | relMSE |", "|---|---|---|---|"]
         for c in two:
-            if c["technique"] == "path" and c["sweep"].get("spp") != "8":
+            if c["technique"] == "path" and c["sweep"].get("spp") != max(
+                    (x["sweep"].get("spp") for x in two if x["technique"] == "path"), key=int):
                 continue
-            r = m.compare(rtgi, ref_exr, OUT / "images" / c["image_file"], region=DARK_FLOOR)["region"]
+            r = m.compare(rtgi, ref_exr, OUT / "images" / c["image_file"], region=region)["region"]
             lines.append(f"| {label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
                          f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f} |")
         lines.append("")
-    lines += lag_section(rtgi)
-    (DOC / "ddgi.md").write_text("\n".join(lines) + "\n")
+    lines += paper_grid_section(cells)
+    if not args.no_lag:
+        lines += lag_section(rtgi)
+    (DOC / f"{args.doc}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 
