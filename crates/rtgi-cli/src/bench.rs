@@ -47,9 +47,13 @@ enum BenchCommand {
     },
 }
 
-/// `git describe` of the checkout the suite lives in (the commit the figures come from), else
-/// `$RTGI_COMMIT`, else "unknown".
+/// `$RTGI_COMMIT` when set (a copy of the tree without its history, e.g. on a GPU machine, names the
+/// commit it was copied from), else `git describe` of the checkout the suite lives in (the commit the
+/// figures come from), else "unknown".
 fn commit(near: &Path) -> String {
+    if let Some(commit) = std::env::var("RTGI_COMMIT").ok().filter(|c| !c.trim().is_empty()) {
+        return commit.trim().to_string();
+    }
     let dir = near.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::process::Command::new("git")
         .args(["describe", "--always", "--dirty", "--abbrev=12"])
@@ -60,7 +64,6 @@ fn commit(near: &Path) -> String {
         .and_then(|o| String::from_utf8(o.stdout).ok())
         .map(|s| s.trim().to_string())
         .filter(|s| !s.is_empty())
-        .or_else(|| std::env::var("RTGI_COMMIT").ok())
         .unwrap_or_else(|| "unknown".into())
 }
 

@@ -422,6 +422,12 @@ impl Renderer {
         self.sample_index = 0;
     }
 
+    /// Forgets the frame and pass times recorded so far (a benchmark's warm-up): [`Self::stats`] times
+    /// the frames from here on, all but the first, as after creation.
+    pub fn reset_timings(&mut self) {
+        self.profiler.reset();
+    }
+
     /// Marks the next frame as a cut: no history is valid, accumulation restarts.
     pub fn cut(&mut self) {
         self.history_valid = false;

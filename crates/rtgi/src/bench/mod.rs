@@ -28,6 +28,9 @@ use crate::techniques::RenderError;
 
 pub use suite::{CellSpec, Shard, Suite, SuiteScene};
 
+/// How long a cell keeps a discrete GPU busy before its warm-up frames (see [`run_cell`]).
+const WARM_UP: std::time::Duration = std::time::Duration::from_millis(500);
+
 /// The `schema` field of `results.json`; bumped on any incompatible change.
 pub const SCHEMA: &str = "rtgi-bench/1";
 
@@ -199,7 +202,7 @@ fn metric_error(e: metrics::MetricsError) -> RenderError {
 }
 
 /// The cell's figures from the renderer's statistics over `frames` frames.
-fn timings(stats: &RenderStats, frames: u32) -> (Option<TimeSummary>, Option<TimeSummary>, Vec<PassResult>) {
+fn timings(stats: &RenderStats) -> (Option<TimeSummary>, Option<TimeSummary>, Vec<PassResult>) {
     let (gpu, wall) = (stats.frame_gpu, stats.frame_wall);
     let passes = stats
         .passes
@@ -208,7 +211,7 @@ fn timings(stats: &RenderStats, frames: u32) -> (Option<TimeSummary>, Option<Tim
             let per_call = p.gpu.map(|g| g.mean_ms)?;
             Some(PassResult {
                 name: p.name.clone(),
-                ms_per_frame: per_call * f64::from(p.calls) / f64::from(frames),
+                ms_per_frame: per_call * f64::from(p.calls) / f64::from(stats.frames.max(1)),
             })
         })
         .collect();
@@ -336,17 +339,36 @@ fn run_cell(
         let time_of = |m: u32| -> f32 {
             if s.times.is_empty() { 0.0 } else { s.times[m.saturating_sub(1) as usize % s.times.len()] }
         };
-        for step in 0..cell.warmup + suite.frames {
-            let frame = (step + 1).saturating_sub(cell.warmup);
+        // Warm-up: the cell's `warmup` frames (at least one: lazy pipeline compilation), after busy
+        // work that raises a discrete GPU's clocks (it idles at low clocks while a cell is set up).
+        // Then the timed frames, back to back, their images read back by nobody; then the compared
+        // frames, untimed, so that computing their errors on the CPU leaves no idle gap before a
+        // timed frame. The frame counts are fixed, so the images are the same on every run.
+        crate::gpu::kernel::keep_busy(ctx, WARM_UP)?;
+        for _ in 0..cell.warmup.max(1) {
+            if !s.times.is_empty() {
+                renderer.set_time(time_of(0))?;
+            }
+            renderer.cut();
+            renderer.step()?;
+        }
+        renderer.reset_timings();
+        // One more than `frames`: the first after the reset is not timed.
+        for frame in 0..=suite.frames {
+            if !s.times.is_empty() {
+                renderer.set_time(time_of(frame))?;
+            }
+            renderer.cut();
+            renderer.step()?;
+        }
+        let stats = renderer.stats()?;
+        for frame in 1..=suite.error_frames {
             let t = time_of(frame);
             if !s.times.is_empty() {
                 renderer.set_time(t)?;
             }
             renderer.cut();
             renderer.step()?;
-            if frame == 0 || frame > suite.error_frames {
-                continue;
-            }
             let image = renderer.read_image()?;
             metrics::check_finite(&image, &format!("{} on {}", cell.series, s.text)).map_err(metric_error)?;
             let reference =
@@ -374,8 +396,7 @@ fn run_cell(
             }
             result.frames.push(FrameError { time: t, error });
         }
-        let stats = renderer.stats()?;
-        let (gpu, wall, passes) = timings(&stats, cell.warmup + suite.frames);
+        let (gpu, wall, passes) = timings(&stats);
         result.gpu_ms = gpu;
         result.wall_ms = wall;
         result.passes = passes;

@@ -87,6 +87,66 @@ pub fn run_kernel(
     Ok(out)
 }
 
+/// Busy work for [`keep_busy`]: a chain of multiply-adds per invocation, its result stored so that
+/// the compiler keeps it.
+const BUSY_KERNEL: &str = "@group(0) @binding(0) var<storage, read_write> sink: array<f32, 64>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    var x = f32(id.x);
+    for (var i = 0u; i < 4096u; i++) {
+        x = fma(x, 0.999, 0.5);
+    }
+    if x == 12345.0 {
+        sink[id.x % 64u] = x;
+    }
+}";
+
+/// Keeps a discrete GPU busy for `duration` so that it raises its clocks before something is timed (an
+/// H100 idling between benchmark cells ran cornell's path tracer at 1080p 5.5× slower than after a
+/// few hundred busy milliseconds). A CPU driver has no clocks to raise: there it returns at once.
+pub fn keep_busy(ctx: &GpuContext, duration: std::time::Duration) -> Result<(), GpuError> {
+    if ctx.summary.device_type == format!("{:?}", wgpu::DeviceType::Cpu) {
+        return Ok(());
+    }
+    let device = &ctx.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("keep busy"),
+        source: wgpu::ShaderSource::Wgsl(BUSY_KERNEL.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("keep busy"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let sink = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("keep busy"),
+        size: 256,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("keep busy"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: sink.as_entire_binding() }],
+    });
+    let start = std::time::Instant::now();
+    while start.elapsed() < duration {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(4096, 1, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait_idle()?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
