@@ -183,8 +183,9 @@ def main():
         f"plots, every cell with thumbnails and error maps) is in [`{args.doc}-bench/`]({args.doc}-bench/report.md).",
         "",
         f"Each cell: a fresh renderer, `warmup` frames (100 for DDGI: its probes converge; a camera cut does not "
-        f"clear them), then {suite.get('frames', 8)} measured frames, each after a cut (no accumulation), the "
-        f"first {suite.get('error_frames', 4)} compared with the path-traced full-GI reference (spp: {ref_spp}). "
+        f"clear them), then {suite.get('frames', 8)} timed frames back to back, then "
+        f"{suite.get('error_frames', 4)} compared with the path-traced full-GI reference (spp: {ref_spp}), each "
+        "frame after a cut (no accumulation; docs/bench.md). "
         "ms/frame is the per-frame GPU time of the whole frame (G-buffer included)"
         + (" on lavapipe: compare techniques with each other, not with GPU figures." if cpu else "."), "",
     ]
@@ -209,7 +210,8 @@ def main():
                 f"{label(ddgi)} per pass, ms/frame: {split}. {k['probes']:.0f} probes "
                 f"({k['probes_x']:.0f}×{k['probes_y']:.0f}×{k['probes_z']:.0f}), "
                 f"{k['probe_rays_per_frame']:.0f} probe rays per frame at "
-                f"{k['probe_rays_per_second'] / 1e6:.2f} M rays/s (shading shadow rays not counted), atlases "
+                f"{k['probe_rays_per_second'] / 1e6:.2f} M rays/s (the active probes' rays; shading shadow rays "
+                "not counted), atlases "
                 f"{(k['irradiance_atlas_bytes'] + k['distance_atlas_bytes']) / 2**20:.2f} MiB (both ping-pong "
                 f"copies), back-face rays {100 * k['backface_ray_fraction']:.1f} %; "
                 f"{k['probes_active']:.0f} probes active after classification, {k['probes_relocated']:.0f} "

@@ -459,6 +459,7 @@ warmup = 5
             [
                 "ddgi-formats.toml",
                 "ddgi-gpu.toml",
+                "ddgi-lavapipe.toml",
                 "ddgi.toml",
                 "gpu.toml",
                 "igi-cost.toml",

@@ -83,6 +83,12 @@ impl Measured<'_> {
         let p = self.passes.iter().find(|p| p.name == name)?;
         p.gpu_ms.or(p.wall_ms)
     }
+
+    /// Mean time of one call of pass `name` ([`Self::pass_ms`] over its calls).
+    pub fn pass_mean_ms(&self, name: &str) -> Option<f64> {
+        let calls = self.passes.iter().find(|p| p.name == name)?.calls;
+        self.pass_ms(name).filter(|_| calls > 0).map(|ms| ms / f64::from(calls))
+    }
 }
 
 /// What changed in place in the GPU scene (see [`Technique::scene_changed`]).

@@ -974,8 +974,12 @@ impl Technique for Ddgi {
             ("output_bytes_per_pixel".to_string(), 16.0),
             ("pixels".to_string(), f64::from(self.width * self.height)),
         ]);
-        if let Some(ms) = measured.pass_ms("probe trace").filter(|&ms| ms > 0.0) {
-            c.insert("probe_rays_per_second".into(), traced / (ms / 1e3));
+        // Per frame, from this frame's active probes and the trace pass's mean time: the timings may
+        // cover fewer frames than the ray counter (a benchmark resets them after its warm-up).
+        let active_rays = with(PROBE_ACTIVE) * f64::from(self.rays_per_probe) * f64::from(self.update_count)
+            / f64::from(self.grid.probes());
+        if let Some(ms) = measured.pass_mean_ms("probe trace").filter(|&ms| ms > 0.0) {
+            c.insert("probe_rays_per_second".into(), active_rays / (ms / 1e3));
         }
         Ok(c)
     }
