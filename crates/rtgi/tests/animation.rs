@@ -251,6 +251,11 @@ fn every_technique_animated_and_fresh(
 /// these scenes), to below 0.9^40 ≈ 1.5 % of its first-frame difference.
 const TEMPORAL_SETTLE_FRAMES: u32 = 40;
 
+/// The largest difference of a channel relative to its magnitude (at least 1e-3).
+fn largest_relative_difference(a: &HdrImage, b: &HdrImage) -> f32 {
+    a.rgb.iter().zip(&b.rgb).map(|(x, y)| (x - y).abs() / x.abs().max(y.abs()).max(1e-3)).fold(0.0, f32::max)
+}
+
 fn largest_difference(a: &HdrImage, b: &HdrImage) -> f32 {
     a.rgb.iter().zip(&b.rgb).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max)
 }
@@ -268,14 +273,18 @@ fn moved_lights_and_sun_render_like_a_fresh_renderer_for_every_technique() {
             let relative = (mean(&frame) - mean(&expected)).abs() / mean(&expected);
             eprintln!("{name} {technique}: largest difference {difference:e}, mean difference {relative:e}");
             if motion == Motion::Temporal {
-                // Measured (ddgi, 40 frames after the move), cornell-spot largest / mean: lavapipe
-                // 6.1e-6 / 2.5e-6, an NVIDIA H100 2.7e-5 / 6.2e-6 (its conversion to the f16 atlas
-                // truncates, so the blend stalls up to a whole f16 step from its target, on the side
-                // of the old pose); atrium identical on both. A probe state left from the old pose
-                // would show as a difference of the light's move (~0.1 on these scenes).
+                // The blend into the f16 atlas stalls within a rounding step of its target, on the
+                // side of the old pose: a residue of up to 2^-10 of the stored irradiance, so at most
+                // about 1e-3 of a pixel. Measured (ddgi, 40 frames after the move), cornell-spot
+                // largest absolute / relative to its pixel / mean: lavapipe 1.3e-5 / 3.6e-4 / 3.1e-6,
+                // an NVIDIA H100 1.4e-5 / – / 1.4e-6; atrium identical on lavapipe, 6.8e-5 absolute at
+                // one pixel / 4.2e-8 on the H100. A probe state left from the old pose would differ by
+                // the light's move (~0.1, many pixels).
+                let relative_pixel = largest_relative_difference(&frame, &expected);
+                eprintln!("{name} {technique}: largest difference relative to the pixel {relative_pixel:e}");
                 assert!(
-                    difference < 5e-5 && relative < 1.5e-5,
-                    "{name} {technique}: {difference:e}, {relative:e}"
+                    relative_pixel < 2e-3 && relative < 1.5e-5,
+                    "{name} {technique}: {relative_pixel:e}, {relative:e}"
                 );
             } else {
                 // Measured: identical for every technique on both scenes.

@@ -211,7 +211,10 @@ mod tests {
 fn main(@builtin(global_invocation_id) id: vec3u) {
     if id.x >= arrayLength(&input) { return; }
     let v = input[id.x];
-    output[2u * id.x] = unpack_half4(pack_half4(v));
+    // The packed bits go out as they are (unpacked on the CPU): NVIDIA's compiler folds a pack and
+    // unpack in one shader into nothing, and in rtgi they meet only across passes, through memory.
+    let packed = pack_half4(v);
+    output[2u * id.x] = vec4f(bitcast<f32>(packed.x), bitcast<f32>(packed.y), 0.0, 0.0);
     let largest = max(abs(v.xyz), vec3f(0.0));
     output[2u * id.x + 1u] = vec4f(v.xyz * half_fit_scale(largest), 0.0);
 }";
@@ -237,11 +240,12 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         )
         .expect("kernel");
         for (k, v) in input.iter().enumerate() {
+            let words = [out[8 * k].to_bits(), out[8 * k + 1].to_bits()];
             for c in 0..4 {
-                let packed = out[8 * k + c];
+                let packed = unhalf((words[c / 2] >> (16 * (c % 2))) as u16);
                 let clamped = v[c].clamp(-HALF_MAX, HALF_MAX);
-                // WGSL lets a conversion to a narrower float round either way (NVIDIA truncates 3e-3,
-                // lavapipe rounds to nearest): the packed value must be one of the two halves around it.
+                // WGSL lets a conversion to a narrower float round either way: the packed value must
+                // be one of the two halves around it.
                 let nearest = half(clamped);
                 let other = if unhalf(nearest) == clamped {
                     nearest
