@@ -400,6 +400,18 @@ fn irradiance_format(name: &str) -> wgpu::TextureFormat {
     }
 }
 
+/// The rounding step of an atlas format's stored values, as (relative, absolute): a value v is stored
+/// to within max(|v|·relative, absolute). Floats: 2^−mantissa bits (rg11b10ufloat's blue has 5) and
+/// their smallest normal; unorm: 1/1023.
+fn storage_step(format: wgpu::TextureFormat) -> (f32, f32) {
+    match format {
+        wgpu::TextureFormat::Rgba32Float => (f32::EPSILON, f32::MIN_POSITIVE),
+        wgpu::TextureFormat::Rg11b10Ufloat => (2f32.powi(-5), 2f32.powi(-14)),
+        wgpu::TextureFormat::Rgb10a2Unorm => (0.0, 1.0 / 1023.0),
+        _ => (2f32.powi(-10), 2f32.powi(-14)),
+    }
+}
+
 /// Bytes per texel of the atlas formats.
 fn texel_bytes(format: wgpu::TextureFormat) -> u64 {
     u64::from(format.block_copy_size(None).unwrap_or(8))
@@ -469,7 +481,10 @@ impl Atlas {
         });
         let source = format!("{VOLUME_WGSL}\n{}", include_str!("update.wgsl"))
             .replace("ATLAS_FORMAT", wgsl_format_name(format));
-        let update = compute::pipeline(ctx, name, &source, defines.clone(), entry, &[&group_layout])?;
+        let (relative, absolute) = storage_step(format);
+        let defines =
+            defines.clone().f32("ATLAS_RELATIVE_STEP", relative).f32("ATLAS_ABSOLUTE_STEP", absolute);
+        let update = compute::pipeline(ctx, name, &source, defines, entry, &[&group_layout])?;
         Ok(Atlas { layout, format, textures, views, update, groups })
     }
 
