@@ -400,15 +400,34 @@ fn irradiance_format(name: &str) -> wgpu::TextureFormat {
     }
 }
 
-/// The rounding step of an atlas format's stored values, as (relative, absolute): a value v is stored
-/// to within max(|v|·relative, absolute). Floats: 2^−mantissa bits (rg11b10ufloat's blue has 5) and
-/// their smallest normal; unorm: 1/1023.
-fn storage_step(format: wgpu::TextureFormat) -> (f32, f32) {
+/// How the update pass rounds an atlas format's values (`blend_stored` in update.wgsl): for the 16- and
+/// 11-bit floats stochastically to multiples of (relative step × the value's power of two, at least the
+/// absolute step below the smallest normal), for rgb10a2unorm one step of 1/1023 towards the target where
+/// a blend would stall; rgba32float needs neither.
+struct StorageRounding {
+    stochastic: bool,
+    relative: f32,
+    absolute: f32,
+    min_normal: f32,
+}
+
+fn storage_rounding(format: wgpu::TextureFormat) -> StorageRounding {
+    let float = |mantissa_bits: i32, subnormal_step: f32| StorageRounding {
+        stochastic: true,
+        relative: 2f32.powi(-mantissa_bits),
+        absolute: subnormal_step,
+        min_normal: 2f32.powi(-14),
+    };
     match format {
-        wgpu::TextureFormat::Rgba32Float => (f32::EPSILON, f32::MIN_POSITIVE),
-        wgpu::TextureFormat::Rg11b10Ufloat => (2f32.powi(-5), 2f32.powi(-14)),
-        wgpu::TextureFormat::Rgb10a2Unorm => (0.0, 1.0 / 1023.0),
-        _ => (2f32.powi(-10), 2f32.powi(-14)),
+        wgpu::TextureFormat::Rgba32Float => {
+            StorageRounding { stochastic: false, relative: 0.0, absolute: 0.0, min_normal: 1.0 }
+        }
+        // Blue has 5 mantissa bits (red and green 6): its steps are steps of every channel.
+        wgpu::TextureFormat::Rg11b10Ufloat => float(5, 2f32.powi(-19)),
+        wgpu::TextureFormat::Rgb10a2Unorm => {
+            StorageRounding { stochastic: false, relative: 0.0, absolute: 1.0 / 1023.0, min_normal: 1.0 }
+        }
+        _ => float(10, 2f32.powi(-24)),
     }
 }
 
@@ -481,9 +500,13 @@ impl Atlas {
         });
         let source = format!("{VOLUME_WGSL}\n{}", include_str!("update.wgsl"))
             .replace("ATLAS_FORMAT", wgsl_format_name(format));
-        let (relative, absolute) = storage_step(format);
-        let defines =
-            defines.clone().f32("ATLAS_RELATIVE_STEP", relative).f32("ATLAS_ABSOLUTE_STEP", absolute);
+        let rounding = storage_rounding(format);
+        let defines = defines
+            .clone()
+            .bool("ATLAS_STOCHASTIC", rounding.stochastic)
+            .f32("ATLAS_RELATIVE_STEP", rounding.relative)
+            .f32("ATLAS_ABSOLUTE_STEP", rounding.absolute)
+            .f32("ATLAS_MIN_NORMAL", rounding.min_normal);
         let update = compute::pipeline(ctx, name, &source, defines, entry, &[&group_layout])?;
         Ok(Atlas { layout, format, textures, views, update, groups })
     }

@@ -13,8 +13,10 @@ fn test_defines() -> Defines {
         .vec3f("FIRST_PROBE", [0.0; 3])
         .vec3f("PROBE_SPACING", [1.0; 3])
         .u32("ATLAS_COLUMNS", 5)
+        .bool("ATLAS_STOCHASTIC", true)
         .f32("ATLAS_RELATIVE_STEP", 2f32.powi(-10))
-        .f32("ATLAS_ABSOLUTE_STEP", 2f32.powi(-14))
+        .f32("ATLAS_ABSOLUTE_STEP", 2f32.powi(-24))
+        .f32("ATLAS_MIN_NORMAL", 2f32.powi(-14))
         .u32("IRRADIANCE_TEXELS", 8)
         .u32("DISTANCE_TEXELS", 16)
         .u32("RAYS", 64)
@@ -257,11 +259,11 @@ fn uniform_radiance_gives_pi_l_and_a_step_decays_as_the_hysteresis_power() {
     assert!(residual_at[43] > 0.1 && residual_at[44] < 0.1, "{:?}", &residual_at[42..46]);
 }
 
-/// A half-float atlas reaches its target within two storage steps at α = 0.98: the blend's increments
-/// fall below an f16 step long before that (1 − α of the gap), where a plain blend stalls up to
+/// A half-float atlas follows the exact blend on average at α = 0.98, although its increments fall below
+/// an f16 step long before the target (1 − α of the gap), where a plain blend stalls up to
 /// step / (1 − α) short (measured before blend_stored: 2.5 % of the converged image's luminance on
 /// cornell-spot at α = 0.98, against rgba32float's; within 0.04 % of it at α = 0.85). From πL = 1.57 to
-/// πL' = 4.08 (f16 step 2^-8 there), a plain blend would stall about 0.1 low.
+/// πL' = 4.08 (f16 step 2^-8 there), a plain blend stalls 0.096 low (measured).
 #[test]
 fn a_half_float_atlas_converges_within_its_storage_step() {
     let f = fixture_with("furnace", &[], 8, 8);
@@ -281,12 +283,21 @@ fn a_half_float_atlas_converges_within_its_storage_step() {
     }
     let texels = read_atlas(&f.ctx, &ddgi.irradiance, ddgi.current());
     let step = 2f32.powi(-8);
-    for (probe, t, i) in tile_texels(&ddgi.irradiance, probes) {
-        for value in &texels[i][..3] {
-            let gap = (value - target).abs();
-            assert!(gap <= 2.0 * step, "probe {probe} texel {t:?}: {value} for {target} ({gap})");
-        }
-    }
+    let values: Vec<f32> = tile_texels(&ddgi.irradiance, probes)
+        .into_iter()
+        .flat_map(|(_, _, i)| texels[i][..3].to_vec())
+        .collect();
+    let mean = values.iter().map(|&v| f64::from(v)).sum::<f64>() / values.len() as f64;
+    // The blend's own residual after 400 updates: 0.98^400 of the 2.5 gap, 0.2 steps.
+    let expected = target + (std::f32::consts::PI * 0.5 - target) * 0.98f32.powi(400);
+    let bias = (mean as f32 - expected) / step;
+    let largest = values.iter().map(|v| (v - target).abs() / step).fold(0.0, f32::max);
+    eprintln!("{} texels: mean {bias:+.3} steps from the blend's, farthest {largest:.1} steps", values.len());
+    // Measured: mean +0.009 steps from the exact blend's value, farthest 2.5 (stochastic rounding
+    // leaves each texel a random walk of about a step around it, unbiased; the mean of 8100 texels
+    // scatters by ~0.02); a plain blend stalls 24.5 steps low on every texel.
+    assert!(bias.abs() < 0.05, "mean {bias} steps from {expected}");
+    assert!(largest <= 5.0, "a texel {largest} steps from {target}");
 }
 
 fn step_frames(f: &mut crate::techniques::fixture::Fixture, ddgi: &mut Ddgi, frames: u32) {

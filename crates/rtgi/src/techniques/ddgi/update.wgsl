@@ -1,8 +1,9 @@
+#import common/random.wgsl
+
 // Probe update: every texel of every probe tile (gutters included) of the active probes in this frame's
 // update blends this frame's rays into the previous atlas, E_t = α·E_{t−1} + (1 − α)·Ê_t, with Ê the
 // lobe-weighted mean normalised by the summed weights and α = probe_frame.hysteresis (0 for a probe
-// never updated before), at least one storage step towards Ê where the format's rounding would stall it
-// (blend_stored); every other texel is copied, since the atlases ping-pong. Irradiance: cosine lobe, Ê = π·Σ w·L / Σ w (exact for
+// never updated before), rounded as the atlas stores it without stalling (blend_stored); every other texel is copied, since the atlases ping-pong. Irradiance: cosine lobe, Ê = π·Σ w·L / Σ w (exact for
 // uniform radiance), back-face rays skipped. Distance: the mean and mean square of the hit distance
 // (clamped to MAX_DISTANCE) under a cosine-power lobe; texels whose summed weight is below 0.001 keep
 // their value. A gutter texel computes the interior texel it mirrors, so both hold the same value
@@ -44,19 +45,35 @@ fn locate(id: vec2u, interior: u32) -> Texel {
 }
 
 // The blend E = α·E_prev + (1 − α)·Ê as the atlas stores it. The format rounds every value to a step of
-// its own (ATLAS_RELATIVE_STEP of it, at least ATLAS_ABSOLUTE_STEP), so an increment below a step
-// rounds back to E_prev and the blend stalls short of its target by up to step / (1 − α): 2.5 % at
-// α = 0.98 in rgba16float. Where the target lies a step or more away and the blend would move less,
-// it moves one step towards it (E_prev is stored exactly, so E_prev ± one step survives any rounding).
-// With noisy Ê this steers E to the median of Ê rather than its mean, which for skewed estimates is
-// still low (cornell-spot at α = 0.98: 2.3 % below rgba32float's image); unbiased stochastic rounding to
-// the format's neighbours would remove that too.
-fn blend_stored(stored: vec4f, goal: vec4f, alpha: f32) -> vec4f {
+// its own, so an increment below a step rounds back to E_prev and the blend stalls short of its target
+// by up to step / (1 − α): 2.5 % at α = 0.98 in rgba16float. Float formats (ATLAS_STOCHASTIC) therefore
+// round the blend themselves, to one of its two representable neighbours with the probabilities that
+// keep its mean: the stored value is exact whatever the hardware's rounding mode, and unbiased even for
+// noisy, skewed Ê (a deterministic fix, one step towards Ê, still left cornell-spot 2.3 % dark: it
+// steers towards the median). Unorm atlases (exact steps ATLAS_ABSOLUTE_STEP) take that one step.
+fn blend_stored(stored: vec4f, goal: vec4f, alpha: f32, random: vec4f) -> vec4f {
     let blended = mix(goal, stored, alpha);
+    if ATLAS_STOCHASTIC {
+        let exponent = floor(log2(max(abs(blended), vec4f(ATLAS_MIN_NORMAL))));
+        let step = max(exp2(exponent) * ATLAS_RELATIVE_STEP, vec4f(ATLAS_ABSOLUTE_STEP));
+        let below = floor(blended / step) * step;
+        return select(below, below + step, random < (blended - below) / step);
+    }
     let step = max(abs(stored) * ATLAS_RELATIVE_STEP, vec4f(ATLAS_ABSOLUTE_STEP));
     let gap = goal - stored;
     let stalls = (abs(gap) >= step) & (abs(blended - stored) < step);
     return select(blended, stored + sign(gap) * step, stalls);
+}
+
+// Four uniform numbers in [0, 1) for texel `id` this frame (the ray pattern's rotation changes every frame).
+fn texel_random(id: vec2u) -> vec4f {
+    var h = hash3(id.x, id.y, bitcast<u32>(probe_frame.rotation[0].x));
+    var r: vec4f;
+    for (var i = 0u; i < 4u; i++) {
+        h = pcg_hash(h);
+        r[i] = u32_to_unit(h);
+    }
+    return r;
 }
 
 @compute @workgroup_size(8, 8)
@@ -79,7 +96,7 @@ fn update_irradiance(@builtin(global_invocation_id) id: vec3u) {
             }
         }
         if weight > 0.0 {
-            value = blend_stored(vec4f(value, 0.0), vec4f(PI * sum / weight, 0.0), t.hysteresis).rgb;
+            value = blend_stored(vec4f(value, 0.0), vec4f(PI * sum / weight, 0.0), t.hysteresis, texel_random(id.xy)).rgb;
         }
     }
     textureStore(updated, id.xy, vec4f(value, 1.0));
@@ -106,7 +123,7 @@ fn update_distance(@builtin(global_invocation_id) id: vec3u) {
             }
         }
         if weight >= 0.001 {
-            value = blend_stored(vec4f(value, 0.0, 0.0), vec4f(sum / weight, 0.0, 0.0), t.hysteresis).xy;
+            value = blend_stored(vec4f(value, 0.0, 0.0), vec4f(sum / weight, 0.0, 0.0), t.hysteresis, texel_random(id.xy)).xy;
         }
     }
     textureStore(updated, id.xy, vec4f(value, 0.0, 1.0));
