@@ -275,11 +275,12 @@ fn moved_lights_and_sun_render_like_a_fresh_renderer_for_every_technique() {
             if motion == Motion::Temporal {
                 // The blend into the f16 atlas stalls within a rounding step of its target, on the
                 // side of the old pose: a residue of up to 2^-10 of the stored irradiance, so at most
-                // about 1e-3 of a pixel. Measured (ddgi, 40 frames after the move), cornell-spot
-                // largest absolute / relative to its pixel / mean: lavapipe 1.3e-5 / 3.6e-4 / 3.1e-6,
-                // an NVIDIA H100 1.4e-5 / – / 1.4e-6; atrium identical on lavapipe, 6.8e-5 absolute at
-                // one pixel / 4.2e-8 on the H100. A probe state left from the old pose would differ by
-                // the light's move (~0.1, many pixels).
+                // about 1e-3 of a pixel (the blend's stochastic rounding walks within a few steps).
+                // Measured (ddgi, 40 frames after the move), largest absolute / relative to its pixel /
+                // mean: lavapipe (stochastic rounding, 344110e) cornell-spot 7.4e-6 / 2.0e-4 / 1.8e-6,
+                // atrium 2.1e-5 / 3.6e-4 / 8.7e-8; an NVIDIA H100 (plain blend, 1370470) cornell-spot
+                // 1.4e-5 / – / 1.4e-6, atrium 6.8e-5 / – / 4.2e-8. A probe state left from the old pose
+                // would differ by the light's move (~0.1, many pixels).
                 let relative_pixel = largest_relative_difference(&frame, &expected);
                 eprintln!("{name} {technique}: largest difference relative to the pixel {relative_pixel:e}");
                 assert!(
