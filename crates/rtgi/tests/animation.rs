@@ -277,8 +277,8 @@ fn moved_lights_and_sun_render_like_a_fresh_renderer_for_every_technique() {
                 // side of the old pose: a residue of up to 2^-10 of the stored irradiance, so at most
                 // about 1e-3 of a pixel (the blend's stochastic rounding walks within a few steps).
                 // Measured (ddgi, 40 frames after the move), largest absolute / relative to its pixel /
-                // mean: lavapipe (stochastic rounding, 344110e) cornell-spot 7.4e-6 / 2.0e-4 / 1.8e-6,
-                // atrium 2.1e-5 / 3.6e-4 / 8.7e-8; an NVIDIA H100 (plain blend, 1370470) cornell-spot
+                // mean: lavapipe (stochastic rounding) cornell-spot 6.7e-6 / 2.2e-4 / 1.9e-6, atrium
+                // 5.5e-7 / 4.5e-6 / 4.0e-10; an NVIDIA H100 (plain blend, 1370470) cornell-spot
                 // 1.4e-5 / – / 1.4e-6, atrium 6.8e-5 / – / 4.2e-8. A probe state left from the old pose
                 // would differ by the light's move (~0.1, many pixels).
                 let relative_pixel = largest_relative_difference(&frame, &expected);

@@ -105,7 +105,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
 /// H100 idling between benchmark cells ran cornell's path tracer at 1080p 5.5× slower than after a
 /// few hundred busy milliseconds). A CPU driver has no clocks to raise: there it returns at once.
 pub fn keep_busy(ctx: &GpuContext, duration: std::time::Duration) -> Result<(), GpuError> {
-    if ctx.summary.device_type == format!("{:?}", wgpu::DeviceType::Cpu) {
+    if ctx.adapter.get_info().device_type == wgpu::DeviceType::Cpu {
         return Ok(());
     }
     let device = &ctx.device;

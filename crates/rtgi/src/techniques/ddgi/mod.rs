@@ -1014,8 +1014,7 @@ impl Technique for Ddgi {
         ]);
         // Per frame, from this frame's active probes and the trace pass's mean time: the timings may
         // cover fewer frames than the ray counter (a benchmark resets them after its warm-up).
-        let active_rays = with(PROBE_ACTIVE) * f64::from(self.rays_per_probe) * f64::from(self.update_count)
-            / f64::from(self.grid.probes());
+        let active_rays = with(PROBE_ACTIVE) * self.probe_rays() as f64 / f64::from(self.grid.probes());
         if let Some(ms) = measured.pass_mean_ms("probe trace").filter(|&ms| ms > 0.0) {
             c.insert("probe_rays_per_second".into(), active_rays / (ms / 1e3));
         }

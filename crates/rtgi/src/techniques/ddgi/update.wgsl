@@ -67,13 +67,8 @@ fn blend_stored(stored: vec4f, goal: vec4f, alpha: f32, random: vec4f) -> vec4f 
 
 // Four uniform numbers in [0, 1) for texel `id` this frame (the ray pattern's rotation changes every frame).
 fn texel_random(id: vec2u) -> vec4f {
-    var h = hash3(id.x, id.y, bitcast<u32>(probe_frame.rotation[0].x));
-    var r: vec4f;
-    for (var i = 0u; i < 4u; i++) {
-        h = pcg_hash(h);
-        r[i] = u32_to_unit(h);
-    }
-    return r;
+    var rng = rng_new(id, bitcast<u32>(probe_frame.rotation[0].x), 0u);
+    return vec4f(rng_next2(&rng), rng_next2(&rng));
 }
 
 @compute @workgroup_size(8, 8)
