@@ -77,6 +77,17 @@ pub fn rotate_zonal(axis: Vec3, a_hat: &[f32; BANDS]) -> [f32; COEFFICIENTS] {
     std::array::from_fn(|i| a_hat[band(i)] * y[i])
 }
 
+/// Order-1 SH (bands 0–1, light propagation volumes) of the clamped cosine max(0, ⟨n, ω⟩): Â_l Y_lm(n).
+pub fn cosine_lobe4(n: Vec3) -> [f32; 4] {
+    let y = basis(n);
+    std::array::from_fn(|i| lambert(band(i)) * y[i])
+}
+
+/// Evaluates the order-1 SH `c` (bands 0–1) in direction `d`.
+pub fn eval4(c: &[f32; 4], d: Vec3) -> f32 {
+    basis(d).iter().zip(c).map(|(y, c)| y * c).sum()
+}
+
 /// Evaluates Σ c_i Y_i(d).
 pub fn eval(c: &[f32; COEFFICIENTS], d: Vec3) -> f32 {
     basis(d).iter().zip(c).map(|(y, c)| y * c).sum()
@@ -240,10 +251,14 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let d = input[id.x];
     let b = sh_basis(d.xyz);
     for (var i = 0u; i < SH_COEFFICIENTS; i++) {
-        output[id.x * 30u + i] = b[i];
+        output[id.x * 34u + i] = b[i];
     }
     for (var l = 0u; l < SH_BANDS; l++) {
-        output[id.x * 30u + 25u + l] = sh_phong(d.w, l);
+        output[id.x * 34u + 25u + l] = sh_phong(d.w, l);
+    }
+    let lobe = sh4_cosine_lobe(d.xyz);
+    for (var i = 0u; i < 4u; i++) {
+        output[id.x * 34u + 30u + i] = lobe[i];
     }
 }";
 
@@ -264,22 +279,27 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             SHADER,
             bytemuck::cast_slice(&dirs),
             dirs.len() as u32,
-            dirs.len() * 30,
+            dirs.len() * 34,
         )
         .expect("kernel");
         for (k, d) in dirs.iter().enumerate() {
             let cpu = basis(Vec3::new(d[0], d[1], d[2]));
             for i in 0..COEFFICIENTS {
                 assert!(
-                    (gpu[k * 30 + i] - cpu[i]).abs() < 1e-5,
+                    (gpu[k * 34 + i] - cpu[i]).abs() < 1e-5,
                     "dir {k} Y{i}: GPU {} CPU {}",
-                    gpu[k * 30 + i],
+                    gpu[k * 34 + i],
                     cpu[i]
                 );
             }
             for l in 0..BANDS {
-                let (g, c) = (gpu[k * 30 + 25 + l], phong(d[3], l));
+                let (g, c) = (gpu[k * 34 + 25 + l], phong(d[3], l));
                 assert!((g - c).abs() < 1e-5, "phong n = {} band {l}: GPU {g} CPU {c}", d[3]);
+            }
+            let lobe = cosine_lobe4(Vec3::new(d[0], d[1], d[2]));
+            for i in 0..4 {
+                let g = gpu[k * 34 + 30 + i];
+                assert!((g - lobe[i]).abs() < 1e-5, "dir {k} cosine lobe {i}: GPU {g} CPU {}", lobe[i]);
             }
         }
     }

@@ -12,6 +12,7 @@ pub mod discontinuity;
 #[cfg(test)]
 pub(crate) mod fixture;
 pub mod igi;
+pub mod lpv;
 pub mod path;
 pub mod rsm;
 
@@ -202,6 +203,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         rsm::RSM_INTERLEAVED_INFO,
         rsm::SII_INFO,
         ddgi::INFO,
+        lpv::INFO,
     ]
 }
 

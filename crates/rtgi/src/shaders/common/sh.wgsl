@@ -84,3 +84,13 @@ fn sh_phong(n: f32, l: u32) -> f32 {
 fn sh_lambert(l: u32) -> f32 {
     return PI * sh_phong(1.0, l);
 }
+
+// Bands 0–1 only (order-1 SH, the 4 coefficients of light propagation volumes), as a vec4f.
+fn sh4_basis(d: vec3f) -> vec4f {
+    return vec4f(0.282094791773878, 0.488602511902920 * d.y, 0.488602511902920 * d.z, 0.488602511902920 * d.x);
+}
+
+// Order-1 SH of the clamped cosine max(0, ⟨n, ω⟩): Â_l Y_lm(n) (a zonal function's coefficients).
+fn sh4_cosine_lobe(n: vec3f) -> vec4f {
+    return sh4_basis(n) * vec4f(PI, vec3f(2.0 * PI / 3.0));
+}

@@ -14,7 +14,7 @@
 
 mod gather;
 mod interleave;
-mod map;
+pub mod map;
 mod splat;
 #[cfg(test)]
 mod tests;

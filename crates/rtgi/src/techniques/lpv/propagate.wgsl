@@ -1,0 +1,84 @@
+// One propagation step (prepended: volume.wgsl), gathered per destination cell: each of its 6
+// neighbours sends its light through the 5 faces of this cell that it sees (all but the shared one).
+// The flux through a face is ΔΩ_f · I(ω_c), the face's solid angle seen from the source's centre
+// (FRONT_SOLID_ANGLE for the far face, SIDE_SOLID_ANGLE for the four side faces: together 2π/3, so the
+// six neighbours of a cell share its whole sphere) times the source's intensity towards the face's
+// centre; it is re-emitted from this cell's centre as a cosine lobe towards that face, intensity
+// Φ_f/π ⟨n_f, ω⟩⁺ (Kaplanyan & Dachsbacher 2010, §3.3). With GEOMETRY_VOLUME, light reaching a face
+// is attenuated by 1 − B(ω_c), the blocking potential interpolated at the face between the two cells,
+// except in the first step (the injected light would be blocked by the surfaces it leaves).
+
+@group(2) @binding(3) var<storage, read_write> source: array<vec4f>;
+@group(2) @binding(4) var<storage, read_write> destination: array<vec4f>;
+@group(2) @binding(5) var<storage, read_write> accumulated: array<vec4f>;
+@group(2) @binding(6) var<storage, read_write> geometry: array<vec4f>;
+@group(2) @binding(8) var<uniform> propagation: PropagationStep;
+
+const AXES = array<vec3i, 6>(
+    vec3i(1, 0, 0), vec3i(-1, 0, 0), vec3i(0, 1, 0), vec3i(0, -1, 0), vec3i(0, 0, 1), vec3i(0, 0, -1),
+);
+
+fn load_light(i: u32) -> CellLight {
+    return CellLight(source[3u * i], source[3u * i + 1u], source[3u * i + 2u]);
+}
+
+// The geometry volume of `cascade` at grid position g (its cells are centred on whole grid positions).
+fn blocking_at(cascade: u32, g: vec3f) -> vec4f {
+    let base = clamp(floor(g), vec3f(0.0), vec3f(f32(GRID - 1u)));
+    let f = clamp(g - base, vec3f(0.0), vec3f(1.0));
+    let b = vec3u(base);
+    var sum = vec4f(0.0);
+    for (var k = 0u; k < 8u; k++) {
+        let corner = vec3u(k & 1u, (k >> 1u) & 1u, k >> 2u);
+        let w = select(1.0 - f, f, corner == vec3u(1u));
+        sum += geometry[geometry_index(cascade, b + corner)] * (w.x * w.y * w.z);
+    }
+    return sum;
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    let i = indirect_linear_index(gid, groups, 64u);
+    if i >= lpv.cascade_count * cells_per_cascade() {
+        return;
+    }
+    let cascade = i / cells_per_cascade();
+    let cell = vec3i(cell_of(cascade, i));
+    var gathered = CellLight(vec4f(0.0), vec4f(0.0), vec4f(0.0));
+    for (var a = 0u; a < 6u; a++) {
+        // Light travelling along `dir` from the neighbour behind this cell.
+        let dir = AXES[a];
+        let neighbour = cell - dir;
+        if any(neighbour < vec3i(0)) || any(neighbour >= vec3i(i32(GRID))) {
+            continue;
+        }
+        let light = load_light(cell_index(cascade, vec3u(neighbour)));
+        let occluded = GEOMETRY_VOLUME && propagation.index > 0u;
+        var blocking = vec4f(0.0);
+        if occluded {
+            blocking = blocking_at(cascade, vec3f(cell) + 0.5 - 0.5 * vec3f(dir));
+        }
+        for (var f = 0u; f < 6u; f++) {
+            let face = AXES[f];
+            if all(face == -dir) {
+                continue;
+            }
+            let towards = normalize(vec3f(dir) + 0.5 * vec3f(face));
+            let solid_angle = select(SIDE_SOLID_ANGLE, FRONT_SOLID_ANGLE, all(face == dir));
+            var flux = max(eval_cell(light, towards), vec3f(0.0)) * solid_angle;
+            if occluded {
+                flux *= 1.0 - saturate(dot(blocking, sh4_basis(towards)));
+            }
+            let lobe = sh4_cosine_lobe(vec3f(face)) * INV_PI;
+            gathered.r += lobe * flux.r;
+            gathered.g += lobe * flux.g;
+            gathered.b += lobe * flux.b;
+        }
+    }
+    destination[3u * i] = gathered.r;
+    destination[3u * i + 1u] = gathered.g;
+    destination[3u * i + 2u] = gathered.b;
+    accumulated[3u * i] += gathered.r;
+    accumulated[3u * i + 1u] += gathered.g;
+    accumulated[3u * i + 2u] += gathered.b;
+}
