@@ -29,30 +29,6 @@ OUT = m.scratch("ddgi")
 DOC = m.ROOT / "docs/measurements"
 
 
-def dark_floor(width, height):
-    """The floor of two-rooms' dark room (the camera's room) as `rtgi compare --region`: at 128x128 the
-    rows 100-127, every pixel below the doorway's sill line, show room 2's floor, which only light
-    through the doorway may reach. The camera's vertical field of view is fixed, so at other sizes the
-    same rows scale with the height and wider images show more of the floor at the sides."""
-    top = round(100 * height / 128)
-    return f"0,{top},{width},{height - top}"
-
-
-def label(cell):
-    sweep = " ".join(f"{k}={v}" for k, v in cell["sweep"].items())
-    return f"{cell['series']} {sweep}".strip()
-
-
-def path_flip_at(cells, ms):
-    """FLIP of the path tracer at time `ms`, interpolated in log time along its cells; None outside."""
-    path = sorted((c["frame_ms"], c["error"]["flip"]) for c in cells if c["technique"] == "path" and c["error"])
-    for (t0, f0), (t1, f1) in zip(path, path[1:]):
-        if t0 <= ms <= t1:
-            w = (math.log(ms) - math.log(t0)) / (math.log(t1) - math.log(t0))
-            return f0 + w * (f1 - f0)
-    return None
-
-
 LAG_SIZE = "64x64"
 LAG_FRAMES = 300
 # Frames to converge: DDGI's bounces settle by α + (1 − α)ρ per frame, 0.994 for α = 0.98 in
@@ -155,7 +131,7 @@ def paper_grid_section(cells):
         k = c["counters"]
         rays = k["probe_rays_per_frame"] * k["probes_active"] / k["probes"]
         trace = passes.get("probe trace", float("nan"))
-        lines.append(f"| {label(c)} | {c['scene']} | {k['probes']:.0f} "
+        lines.append(f"| {m.label(c)} | {c['scene']} | {k['probes']:.0f} "
                      f"({k['probes_active']:.0f}) | {probe_ms:.3f} | {trace:.3f} | {rays:.0f} | "
                      f"{rays / trace / 1e6:.2f} | {c['frame_ms']:.2f} |")
     return lines + [""]
@@ -235,9 +211,9 @@ def main():
         lines += [f"## {scene} ({width}×{height})", "",
                   "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time |", "|---|---|---|---|---|"]
         for c in sc:
-            p = path_flip_at(sc, c["frame_ms"])
+            p = m.path_flip_at(sc, c["frame_ms"])
             at = f"{p:.4f}" if p is not None and c["technique"] != "path" else "–"
-            lines.append(f"| {label(c)} | {c['frame_ms']:.1f} | {c['error']['flip']:.4f} | "
+            lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {c['error']['flip']:.4f} | "
                          f"{c['error']['rel_mse']:.5f} | {at} |")
         lines.append("")
         ddgi = next((c for c in sc if c["series"] == "ddgi" and c["sweep"].get("rays") == "64"), None)
@@ -247,7 +223,7 @@ def main():
             split = ", ".join(f"{p['name']} {p['ms_per_frame']:.1f}" for p in ddgi["passes"])
             k = ddgi["counters"]
             lines.append(
-                f"{label(ddgi)} per pass, ms/frame: {split}. {k['probes']:.0f} probes "
+                f"{m.label(ddgi)} per pass, ms/frame: {split}. {k['probes']:.0f} probes "
                 f"({k['probes_x']:.0f}×{k['probes_y']:.0f}×{k['probes_z']:.0f}), "
                 f"{k['probe_rays_per_frame']:.0f} probe rays per frame at "
                 f"{k['probe_rays_per_second'] / 1e6:.2f} M rays/s (the active probes' rays; shading shadow rays "
@@ -262,7 +238,7 @@ def main():
     # The leak ladder: light on the dark room's floor.
     two = [c for c in cells if c["scene"] == "two-rooms" and c.get("image_file")]
     if two:
-        region = dark_floor(width, height)
+        region = m.dark_floor(width, height)
         ref_exr = OUT / "two-rooms-reference.exr"
         m.run([rtgi, "reference", "--scene", "two-rooms", "--size", size, "--spp", spp["two-rooms"],
                "--out", ref_exr])
@@ -277,7 +253,7 @@ def main():
                     (x["sweep"].get("spp") for x in two if x["technique"] == "path"), key=int):
                 continue
             r = m.compare(rtgi, ref_exr, OUT / "images" / c["image_file"], region=region)["region"]
-            lines.append(f"| {label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
+            lines.append(f"| {m.label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
                          f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f} |")
         lines.append("")
     lines += paper_grid_section(cells)

@@ -9,6 +9,7 @@ NODEVICE_SELECT (set to 1 unless given). References come from the reference cach
 default cache; see the README), rendered once when missing.
 """
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -205,3 +206,27 @@ def duration(seconds):
 def join_and(items):
     items = list(items)
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+def dark_floor(width, height):
+    """The floor of two-rooms' dark room (the camera's room) as `rtgi compare --region`: at 128x128 the
+    rows 100-127, every pixel below the doorway's sill line, show room 2's floor, which only light
+    through the doorway may reach. The camera's vertical field of view is fixed, so at other sizes the
+    same rows scale with the height and wider images show more of the floor at the sides."""
+    top = round(100 * height / 128)
+    return f"0,{top},{width},{height - top}"
+
+
+def label(cell):
+    sweep = " ".join(f"{k}={v}" for k, v in cell["sweep"].items())
+    return f"{cell['series']} {sweep}".strip()
+
+
+def path_flip_at(cells, ms):
+    """FLIP of the path tracer at time `ms`, interpolated in log time along its cells; None outside."""
+    path = sorted((c["frame_ms"], c["error"]["flip"]) for c in cells if c["technique"] == "path" and c["error"])
+    for (t0, f0), (t1, f1) in zip(path, path[1:]):
+        if t0 <= ms <= t1:
+            w = (math.log(ms) - math.log(t0)) / (math.log(t1) - math.log(t0))
+            return f0 + w * (f1 - f0)
+    return None

@@ -464,6 +464,7 @@ warmup = 5
                 "gpu.toml",
                 "igi-cost.toml",
                 "igi.toml",
+                "lpv.toml",
                 "quick.toml",
                 "rsm-timing.toml",
                 "rsm.toml"

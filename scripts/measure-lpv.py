@@ -1,0 +1,148 @@
+#!/usr/bin/env python3
+"""Prints docs/measurements/lpv-lavapipe-256.md (issue 11) from a run of benches/lpv.toml.
+
+    cargo build --release -p rtgi-cli && python3 scripts/measure-lpv.py          # about 25 min on lavapipe
+    python3 scripts/measure-lpv.py --size 1920x1080 --doc lpv-gpu                 # the suite at 1080p, a GPU
+
+Runs `rtgi bench benches/lpv.toml --out $SCRATCH --images` (default target/measure/lpv), copies its report
+to docs/measurements/NAME-bench/, and adds what the bench does not compute: the GI passes' time (the
+volumes and the lookup, without the G-buffer, the direct light and the RSM, which renders only when
+lights or geometry move) against rsm's gather, their growth with cells × iterations, the volumes'
+memory, and the light on two-rooms' dark floor (the leak). Options: --suite FILE, --size WxH, --doc NAME
+(default lpv-lavapipe-256), --allow-dirty. Shared helpers: scripts/measure_common.py.
+"""
+import argparse
+import json
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+
+sys.dont_write_bytecode = True
+import measure_common as m  # noqa: E402
+
+OUT = m.scratch("lpv")
+DOC = m.ROOT / "docs/measurements"
+LPV_PASSES = ("lpv flux scale", "lpv injection", "lpv geometry injection", "lpv resolve", "lpv propagation",
+              "lpv lookup")
+RSM_PASSES = ("rsm gather", "upsample", "full-resolution fixup", "composite")
+
+
+def gi_ms(cell):
+    names = LPV_PASSES if cell["technique"] == "lpv" else RSM_PASSES
+    return sum(p["ms_per_frame"] for p in cell["passes"] if p["name"] in names)
+
+
+def main():
+    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    args.add_argument("--suite", default="benches/lpv.toml")
+    args.add_argument("--size", help="WxH: run the suite at this size instead of its own")
+    args.add_argument("--doc", default="lpv-lavapipe-256")
+    args.add_argument("--allow-dirty", action="store_true")
+    args = args.parse_args()
+    m.refuse_dirty_tree(args.allow_dirty, "measure-lpv.py")
+    rtgi = m.rtgi_binary()
+    if OUT.exists():
+        shutil.rmtree(OUT)
+    OUT.mkdir(parents=True)
+    suite_file = m.ROOT / args.suite
+    suite_text = suite_file.read_text()
+    suite = tomllib.loads(suite_text)
+    if args.size:
+        suite_text = re.sub(r"(?m)^sizes = .*$", f'sizes = ["{args.size}"]', suite_text)
+        suite_file = OUT / f"{suite_file.stem}-{args.size}.toml"
+        suite_file.write_text(suite_text)
+    size = args.size or suite["sizes"][0]
+    width, height = (int(v) for v in size.split("x"))
+    print(f"running {args.suite} at {size} ...", flush=True)
+    subprocess.run([str(rtgi), "bench", str(suite_file), "--out", str(OUT), "--images"], check=True)
+    results = json.loads((OUT / "results.json").read_text())
+    bench_doc = DOC / f"{args.doc}-bench"
+    if bench_doc.exists():
+        shutil.rmtree(bench_doc)
+    bench_doc.mkdir(parents=True)
+    for f in OUT.iterdir():
+        if f.is_file() and f.suffix != ".toml":
+            shutil.copy(f, bench_doc / f.name)
+    cells = [c for c in results["cells"] if c["error"]]
+    adapter = results["adapters"][0]
+    cpu = adapter.get("device_type") == "Cpu"
+    spp = {sc["scene"]: sc.get("spp", suite["reference"]["spp"]) for sc in suite["scenes"]}
+    ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
+    command = "python3 scripts/measure-lpv.py" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+    lines = [
+        f"# LPV (issue 11): measurements at {width}×{height}", "",
+        f"Printed by `{command}` from `rtgi bench {args.suite}`" + (f" at {size}" if args.size else "")
+        + f" at commit `{results['rtgi']['commit']}` on {m.adapter_text(adapter)}"
+        + (", 2 CPU cores" if cpu else "") + f". The bench's own report (Pareto plots, every cell with "
+        f"thumbnails and error maps) is in [`{args.doc}-bench/`]({args.doc}-bench/report.md).", "",
+        f"Each cell: a fresh renderer, {suite.get('frames', 8)} timed frames back to back, then "
+        f"{suite.get('error_frames', 4)} compared with the path-traced full-GI reference (spp: {ref_spp}), "
+        "each after a cut (docs/bench.md). ms/frame: the whole frame's GPU time (G-buffer included); GI ms: "
+        "lpv's passes from the flux scale to the lookup, rsm's gather, upsampling and composite (both "
+        "without the RSM, rendered only when lights or geometry move, the G-buffer and the direct light). "
+        "LPV is one bounce of the analytic lights (as rsm); the reference has every bounce"
+        + (". On lavapipe: compare techniques with each other, not with GPU figures." if cpu else "."), "",
+    ]
+    for scene in dict.fromkeys(c["scene"] for c in cells):
+        sc = [c for c in cells if c["scene"] == scene]
+        rsm = next((c for c in sc if c["technique"] == "rsm"), None)
+        lines += [f"## {scene} ({width}×{height})", "",
+                  "| cell | ms/frame | GI ms | GI ms / rsm's | FLIP | relMSE | path's FLIP at this time |",
+                  "|---|---|---|---|---|---|---|"]
+        for c in sc:
+            p = m.path_flip_at(sc, c["frame_ms"])
+            at = f"{p:.4f}" if p is not None and c["technique"] != "path" else "–"
+            gi = f"{gi_ms(c):.2f}" if c["technique"] in ("lpv", "rsm") else "–"
+            ratio = f"{gi_ms(c) / gi_ms(rsm):.2f}" if rsm and c["technique"] == "lpv" and gi_ms(rsm) > 0 else "–"
+            lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {gi} | {ratio} | {c['error']['flip']:.4f} | "
+                         f"{c['error']['rel_mse']:.5f} | {at} |")
+        lines.append("")
+        default = next((c for c in sc if c["series"] == "lpv" and c["sweep"].get("iterations") == "8"), None)
+        if default:
+            split = ", ".join(f"{p['name']} {p['ms_per_frame']:.2f}" for p in default["passes"])
+            lines += [f"{m.label(default)} per pass, ms/frame: {split}.", ""]
+
+    scale = [c for c in cells if c["technique"] == "lpv" and c["scene"] == cells[0]["scene"]
+             and c["settings"].get("geometry_volume") != "false"]
+    if scale:
+        lines += ["## Scale and memory", "",
+                  f"{cells[0]['scene']}: injection (flux scale + RSM texels + G-buffer blockers + resolve) and "
+                  "propagation time per frame against cells × steps; memory of the volumes (light: ping, pong "
+                  "and accumulated; injection: the fixed-point sums; geometry: the volume and its sums).", "",
+                  "| cell | cells | steps | injection ms | propagation ms | propagation ns per cell-step | "
+                  "light MiB | injection MiB | geometry MiB |", "|---|---|---|---|---|---|---|---|---|"]
+        for c in scale:
+            k = c["counters"]
+            passes = {p["name"]: p["ms_per_frame"] for p in c["passes"]}
+            inject = sum(passes.get(n, 0.0) for n in LPV_PASSES[:4])
+            prop = passes.get("lpv propagation", 0.0)
+            steps = k["lpv_iterations"]
+            per = f"{prop * 1e6 / (k['lpv_cells'] * steps):.2f}" if steps else "–"
+            lines.append(f"| {m.label(c)} | {k['lpv_cells']:.0f} | {steps:.0f} | {inject:.2f} | {prop:.2f} | {per} | "
+                         f"{k['lpv_light_bytes'] / 2**20:.2f} | {k['lpv_injection_bytes'] / 2**20:.2f} | "
+                         f"{k['lpv_geometry_bytes'] / 2**20:.2f} |")
+        lines.append("")
+
+    two = [c for c in cells if c["scene"] == "two-rooms" and c.get("image_file")]
+    if two:
+        region = m.dark_floor(width, height)
+        ref_exr = OUT / "two-rooms-reference.exr"
+        m.run([rtgi, "reference", "--scene", "two-rooms", "--size", size, "--spp", spp["two-rooms"],
+               "--out", ref_exr])
+        lines += ["## Leaks: light on two-rooms' dark floor", "",
+                  f"Mean luminance of the dark room's floor (pixels {region}: x, y, w, h) against the "
+                  "reference's; light reaches it only through the doorway.", "",
+                  "| cell | floor / reference | FLIP | relMSE |", "|---|---|---|---|"]
+        for c in two:
+            r = m.compare(rtgi, ref_exr, OUT / "images" / c["image_file"], region=region)["region"]
+            lines.append(f"| {m.label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
+                         f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f} |")
+        lines.append("")
+    (DOC / f"{args.doc}.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
