@@ -16,11 +16,8 @@ runs), --allow-dirty. Environment and shared helpers: scripts/measure_common.py.
 import argparse
 import json
 import math
-import re
 import shutil
-import subprocess
 import sys
-import tomllib
 
 sys.dont_write_bytecode = True
 import measure_common as m  # noqa: E402
@@ -162,32 +159,9 @@ def main():
         (DOC / f"{args.doc}.md").write_text("\n".join(lines) + "\n")
         print("\n".join(lines))
         return
-    if OUT.exists():
-        shutil.rmtree(OUT)
-    OUT.mkdir(parents=True)
-    suite_file = m.ROOT / args.suite
-    suite_text = suite_file.read_text()
-    suite = tomllib.loads(suite_text)
-    if args.size:
-        suite_text = re.sub(r"(?m)^sizes = .*$", f'sizes = ["{args.size}"]', suite_text)
-        suite_file = OUT / f"{suite_file.stem}-{args.size}.toml"
-        suite_file.write_text(suite_text)
-    size = args.size or suite["sizes"][0]
+    suite, size, results, cells, adapter, cpu, spp = m.run_suite_into_doc(
+        rtgi, OUT, DOC, args.suite, args.size, args.doc)
     width, height = (int(v) for v in size.split("x"))
-    print(f"running {args.suite} at {size} ...", flush=True)
-    subprocess.run([str(rtgi), "bench", str(suite_file), "--out", str(OUT), "--images"], check=True)
-    results = json.loads((OUT / "results.json").read_text())
-    bench_doc = DOC / f"{args.doc}-bench"
-    if bench_doc.exists():
-        shutil.rmtree(bench_doc)
-    bench_doc.mkdir(parents=True)
-    for f in OUT.iterdir():
-        if f.is_file() and f.suffix != ".toml":
-            shutil.copy(f, bench_doc / f.name)
-    cells = [c for c in results["cells"] if c["error"]]
-    adapter = results["adapters"][0]
-    cpu = adapter.get("device_type") == "Cpu"
-    spp = {sc["scene"]: sc.get("spp", suite["reference"]["spp"]) for sc in suite["scenes"]}
     ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
     command = "python3 scripts/measure-ddgi.py" + "".join(
         f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")

@@ -9,6 +9,8 @@ NODEVICE_SELECT (set to 1 unless given). References come from the reference cach
 default cache; see the README), rendered once when missing.
 """
 import json
+import tomllib
+import re
 import math
 import os
 import shutil
@@ -230,3 +232,35 @@ def path_flip_at(cells, ms):
             w = (math.log(ms) - math.log(t0)) / (math.log(t1) - math.log(t0))
             return f0 + w * (f1 - f0)
     return None
+
+
+def run_suite_into_doc(rtgi, out, doc_dir, suite_path, size, doc):
+    """Runs `rtgi bench suite_path --images` into `out` (at `size` instead of the suite's own when given)
+    and copies its report to doc_dir/DOC-bench/. Returns (suite as parsed, size, results, the cells with
+    an error figure, the adapter, whether it is a CPU driver, the reference spp per scene)."""
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    suite_file = ROOT / suite_path
+    suite_text = suite_file.read_text()
+    suite = tomllib.loads(suite_text)
+    if size:
+        suite_text = re.sub(r"(?m)^sizes = .*$", f'sizes = ["{size}"]', suite_text)
+        suite_file = out / f"{suite_file.stem}-{size}.toml"
+        suite_file.write_text(suite_text)
+    size = size or suite["sizes"][0]
+    print(f"running {suite_path} at {size} ...", flush=True)
+    subprocess.run([str(rtgi), "bench", str(suite_file), "--out", str(out), "--images"], check=True)
+    results = json.loads((out / "results.json").read_text())
+    bench_doc = doc_dir / f"{doc}-bench"
+    if bench_doc.exists():
+        shutil.rmtree(bench_doc)
+    bench_doc.mkdir(parents=True)
+    for f in out.iterdir():
+        if f.is_file() and f.suffix != ".toml":
+            shutil.copy(f, bench_doc / f.name)
+    cells = [c for c in results["cells"] if c["error"]]
+    adapter = results["adapters"][0]
+    cpu = adapter.get("device_type") == "Cpu"
+    spp = {sc["scene"]: sc.get("spp", suite["reference"]["spp"]) for sc in suite["scenes"]}
+    return suite, size, results, cells, adapter, cpu, spp

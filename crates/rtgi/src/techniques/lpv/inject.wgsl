@@ -22,17 +22,6 @@ const FLUX_GROUPS: u32 = 256u;
 const FIXED_RANGE: f32 = 1073741824.0;
 var<workgroup> partial: array<f32, FLUX_THREADS>;
 
-fn rsm_texel_count() -> u32 {
-    let size = u32(rsm_views[0].size);
-    return size * size * select(0u, arrayLength(&rsm_views), rsm_views[0].size > 0.0);
-}
-
-fn texel_of(index: u32) -> vec3i {
-    let size = u32(rsm_views[0].size);
-    let i = index % (size * size);
-    return vec3i(i32(i % size), i32(i / size), i32(index / (size * size)));
-}
-
 // The largest |coefficient| of the cosine lobe of unit intensity (band 1 on its axis).
 fn lobe_bound() -> f32 {
     let c = sh4_cosine_lobe(vec3f(0.0, 0.0, 1.0));

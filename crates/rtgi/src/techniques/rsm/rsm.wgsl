@@ -56,3 +56,16 @@ fn rsm_project_layer(layer: i32, x: vec3f) -> vec2f {
     let ndc = clip.xy / clip.w;
     return clamp(vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), vec2f(0.0), vec2f(1.0));
 }
+
+// Texels of all RSM layers (0 when there is no light), numbered layer by layer, row by row.
+fn rsm_texel_count() -> u32 {
+    let size = u32(rsm_views[0].size);
+    return size * size * select(0u, arrayLength(&rsm_views), rsm_views[0].size > 0.0);
+}
+
+// (x, y, layer) of texel `index` of that numbering.
+fn texel_of(index: u32) -> vec3i {
+    let size = u32(rsm_views[0].size);
+    let i = index % (size * size);
+    return vec3i(i32(i % size), i32(i / size), i32(index / (size * size)));
+}

@@ -21,17 +21,6 @@ struct VplParams {
 const CDF_THREADS: u32 = 256u;
 var<workgroup> block_sums: array<f32, CDF_THREADS>;
 
-fn rsm_texel_count() -> u32 {
-    let size = u32(rsm_views[0].size);
-    return size * size * select(0u, arrayLength(&rsm_views), rsm_views[0].size > 0.0);
-}
-
-fn texel_of(index: u32) -> vec3i {
-    let size = u32(rsm_views[0].size);
-    let i = index % (size * size);
-    return vec3i(i32(i % size), i32(i / size), i32(index / (size * size)));
-}
-
 @compute @workgroup_size(CDF_THREADS)
 fn build_cdf(@builtin(local_invocation_index) t: u32) {
     let n = rsm_texel_count();
