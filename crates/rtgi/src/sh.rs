@@ -79,8 +79,8 @@ pub fn rotate_zonal(axis: Vec3, a_hat: &[f32; BANDS]) -> [f32; COEFFICIENTS] {
 
 /// Order-1 SH (bands 0–1, light propagation volumes) of the clamped cosine max(0, ⟨n, ω⟩): Â_l Y_lm(n).
 pub fn cosine_lobe4(n: Vec3) -> [f32; 4] {
-    let y = basis(n);
-    std::array::from_fn(|i| lambert(band(i)) * y[i])
+    let lobe = rotate_zonal(n, &std::array::from_fn(lambert));
+    std::array::from_fn(|i| lobe[i])
 }
 
 /// Evaluates the order-1 SH `c` (bands 0–1) in direction `d`.

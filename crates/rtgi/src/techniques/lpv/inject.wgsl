@@ -18,7 +18,6 @@
 @group(2) @binding(7) var<storage, read_write> flux_scale: array<f32>;
 
 const FLUX_THREADS: u32 = 256u;
-const FLUX_GROUPS: u32 = 256u;
 const FIXED_RANGE: f32 = 1073741824.0;
 var<workgroup> partial: array<f32, FLUX_THREADS>;
 
@@ -102,6 +101,13 @@ fn inject_rsm(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups
         return;
     }
     let lobe = sh4_cosine_lobe(p.normal) * flux_scale[0];
+    // The texel's beam cross-section over the cosine of incidence: its area on the surface (the cosine
+    // bounded against grazing texels).
+    var surface_area = 0.0;
+    if GEOMETRY_VOLUME {
+        let incidence = light_incidence(lights[rsm_views[c.z].light], p.position);
+        surface_area = p.area / max(dot(p.normal, incidence.direction), 0.25);
+    }
     for (var k = 0u; k < lpv.cascade_count; k++) {
         let g = grid_position(k, p.position + 0.5 * cell_size(k) * p.normal);
         if inside_grid(g) {
@@ -111,12 +117,7 @@ fn inject_rsm(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups
             add_fixed_light(base + 8u, lobe * p.intensity.b);
         }
         if GEOMETRY_VOLUME {
-            // The texel's beam cross-section over the cosine of incidence: its area on the surface (the
-            // cosine bounded against grazing texels).
-            let view = rsm_views[c.z];
-            let incidence = light_incidence(lights[view.light], p.position);
-            let cosine = max(dot(p.normal, incidence.direction), 0.25);
-            add_blocking(k, p.position, p.normal, p.area / cosine, 0u);
+            add_blocking(k, p.position, p.normal, surface_area, 0u);
         }
     }
 }

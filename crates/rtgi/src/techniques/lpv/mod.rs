@@ -41,6 +41,9 @@ pub const MAX_CASCADES: usize = 3;
 /// sum may reach 512 cross-sections before i32 overflows, and one pixel's surfel of 1/4000 of a cell is
 /// resolved to 0.1 %.
 const BLOCKING_SCALE: f32 = 4_194_304.0;
+/// Workgroups of the flux reduction's first dispatch (each reduces a strided share of the RSM texels;
+/// at most the 256 threads of the workgroup that reduces their sums).
+const FLUX_GROUPS: u32 = 256;
 /// Cells over which the lookup blends a cascade into the next coarser one near its border.
 const BLEND_CELLS: f32 = 2.0;
 
@@ -160,6 +163,7 @@ pub fn defines(grid: u32, geometry_volume: bool) -> Defines {
         .f32("SIDE_SOLID_ANGLE", side)
         .f32("BLOCKING_SCALE", BLOCKING_SCALE)
         .f32("BLEND_CELLS", BLEND_CELLS)
+        .u32("FLUX_GROUPS", FLUX_GROUPS)
 }
 
 pub fn inject_source() -> String {
@@ -197,11 +201,13 @@ pub struct Lpv {
     direct: DirectLighting,
     _direct_texture: wgpu::Texture,
     params_buffer: wgpu::Buffer,
-    pub params: LpvParams,
-    /// Light after injection / between steps (ping, pong), the sum over steps, the geometry volume.
-    pub volumes: [wgpu::Buffer; 3],
-    pub geometry: wgpu::Buffer,
-    bytes: BTreeMap<&'static str, u64>,
+    params: LpvParams,
+    /// Light after injection / between steps (ping, pong) and the sum over steps.
+    volumes: [wgpu::Buffer; 3],
+    geometry: wgpu::Buffer,
+    /// Injection's fixed-point sums: light, and blocking (two sources per geometry cell).
+    light_fixed: wgpu::Buffer,
+    blocking_fixed: wgpu::Buffer,
     /// Bind group 2, with ping and pong swapped in the second.
     groups: [wgpu::BindGroup; 2],
     steps: DispatchSlots,
@@ -228,11 +234,6 @@ impl Lpv {
         let geometry_volume = p.bool("geometry_volume");
         let cells = u64::from(grid).pow(3) * cascades as u64;
         let geometry_cells = u64::from(grid + 1).pow(3) * cascades as u64;
-        let bytes = BTreeMap::from([
-            ("lpv_light_bytes", 3 * cells * 48),
-            ("lpv_injection_bytes", cells * 48),
-            ("lpv_geometry_bytes", geometry_cells * (16 + 32)),
-        ]);
         let limit = ctx.limits().max_storage_buffer_binding_size;
         let largest = cells * 48;
         if largest > limit || geometry_cells * 32 > limit {
@@ -267,8 +268,8 @@ impl Lpv {
             buffer("lpv accumulated light", cells * 48),
         ];
         let geometry = buffer("lpv geometry volume", geometry_cells * 16);
-        // The scale and the partial sums of its FLUX_GROUPS (256) workgroups.
-        let flux_scale = buffer("lpv flux scale", 4 * 257);
+        // The scale and the partial sums of the FLUX_GROUPS workgroups.
+        let flux_scale = buffer("lpv flux scale", 4 * (1 + u64::from(FLUX_GROUPS)));
         let step_values: Vec<PropagationStep> =
             (0..iterations.max(1)).map(|index| PropagationStep { index, _pad: [0; 3] }).collect();
         let steps = DispatchSlots::new(ctx, "lpv propagation steps", &step_values);
@@ -314,8 +315,8 @@ impl Lpv {
             )
         });
         let defines = defines(grid, geometry_volume);
-        let scene_layouts = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout];
-        let with_rsm = [scene_layouts[0], scene_layouts[1], &layout, &rsm.layout];
+        let layouts =
+            [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout, &rsm.layout];
         let pipeline = |name: &str, source: &str, entry: &str, layouts: &[&wgpu::BindGroupLayout]| {
             compute::pipeline(ctx, name, source, defines.clone(), entry, layouts)
         };
@@ -329,20 +330,21 @@ impl Lpv {
             _direct_texture: direct_texture,
             params_buffer,
             params,
-            bytes,
             steps,
             flux: [
-                pipeline("lpv flux scale", &inject_wgsl, "measure_flux", &with_rsm)?,
-                pipeline("lpv flux scale total", &inject_wgsl, "flux_scale_from_partials", &with_rsm)?,
+                pipeline("lpv flux scale", &inject_wgsl, "measure_flux", &layouts)?,
+                pipeline("lpv flux scale total", &inject_wgsl, "flux_scale_from_partials", &layouts)?,
             ],
-            inject: pipeline("lpv injection", &inject_wgsl, "inject_rsm", &with_rsm)?,
-            inject_gbuffer: pipeline("lpv geometry injection", &inject_wgsl, "inject_gbuffer", &with_rsm)?,
-            resolve: pipeline("lpv resolve", &resolve_source(), "main", &scene_layouts)?,
-            propagate: pipeline("lpv propagation", &propagate_source(), "main", &scene_layouts)?,
-            shade: pipeline("lpv lookup", &shade_source(), "main", &scene_layouts)?,
+            inject: pipeline("lpv injection", &inject_wgsl, "inject_rsm", &layouts)?,
+            inject_gbuffer: pipeline("lpv geometry injection", &inject_wgsl, "inject_gbuffer", &layouts)?,
+            resolve: pipeline("lpv resolve", &resolve_source(), "main", &layouts)?,
+            propagate: pipeline("lpv propagation", &propagate_source(), "main", &layouts)?,
+            shade: pipeline("lpv lookup", &shade_source(), "main", &layouts)?,
             rsm,
             volumes,
             geometry,
+            light_fixed,
+            blocking_fixed,
             groups,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
         })
@@ -356,79 +358,68 @@ impl Lpv {
         (self.grid + 1).pow(3) * self.cascades as u32
     }
 
-    /// Which volume holds the light of the last propagation step (ping after an even count).
-    pub fn final_step_volume(&self) -> usize {
-        (self.iterations % 2) as usize
+    /// Records `pipeline` over the scene, the frame, the volumes (ping and pong as of propagation step
+    /// `step`, with its slot) and the RSM: every LPV pipeline has the same four groups.
+    fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        fc: &FrameContext,
+        (name, pipeline): (&str, &wgpu::ComputePipeline),
+        step: usize,
+        workgroups: [u32; 3],
+    ) {
+        let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
+        let mut pass = crate::gpu::dispatch::compute_pass(encoder, name, pipeline, &[scene, frame]);
+        let offset = self.steps.offsets().nth(step).unwrap_or(0);
+        pass.set_bind_group(2, &self.groups[step % 2], &[offset]);
+        pass.set_bind_group(3, &self.rsm.bind_group, &[]);
+        pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+    }
+
+    fn pixel_workgroups(fc: &FrameContext) -> [u32; 3] {
+        [fc.frame.width.div_ceil(compute::TILE), fc.frame.height.div_ceil(compute::TILE), 1]
     }
 
     /// Builds the volumes of this frame (injection, resolve and propagation), without shading.
-    pub fn build_volumes(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+    fn build_volumes(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let ctx = fc.ctx;
-        self.params =
-            place_cascades(fc.gpu_scene.bounds(), fc.view.camera.position, self.grid, self.cascades);
-        ctx.queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+        let params = place_cascades(fc.gpu_scene.bounds(), fc.view.camera.position, self.grid, self.cascades);
+        // Fixed cascades (all but the camera-centred ones) never move: write only what changed.
+        if bytemuck::bytes_of(&params) != bytemuck::bytes_of(&self.params) {
+            self.params = params;
+            ctx.queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+        }
         self.rsm.render(ctx, fc.gpu_scene, profiler)?;
-        let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
-        let offset = self.steps.offsets().next().unwrap_or(0);
-        let texels = self.rsm.texels();
+        let linear = |invocations: u32| workgroups_for(invocations, 64, self.max_workgroups);
         profiler.pass(ctx, "lpv flux scale", |e| {
-            for (pipeline, groups) in self.flux.iter().zip([256, 1]) {
-                let mut pass =
-                    crate::gpu::dispatch::compute_pass(e, "lpv flux scale", pipeline, &[scene, frame]);
-                pass.set_bind_group(2, &self.groups[0], &[offset]);
-                pass.set_bind_group(3, &self.rsm.bind_group, &[]);
-                pass.dispatch_workgroups(groups, 1, 1);
-            }
+            self.record(e, fc, ("lpv flux scale", &self.flux[0]), 0, [FLUX_GROUPS, 1, 1]);
+            self.record(e, fc, ("lpv flux scale", &self.flux[1]), 0, [1, 1, 1]);
         })?;
-        let [x, y, z] = workgroups_for(texels, 64, self.max_workgroups);
         profiler.pass(ctx, "lpv injection", |e| {
-            let mut pass =
-                crate::gpu::dispatch::compute_pass(e, "lpv injection", &self.inject, &[scene, frame]);
-            pass.set_bind_group(2, &self.groups[0], &[offset]);
-            pass.set_bind_group(3, &self.rsm.bind_group, &[]);
-            pass.dispatch_workgroups(x, y, z);
+            self.record(e, fc, ("lpv injection", &self.inject), 0, linear(self.rsm.texels()));
         })?;
         if self.geometry_volume {
             profiler.pass(ctx, "lpv geometry injection", |e| {
-                let mut pass = crate::gpu::dispatch::compute_pass(
-                    e,
-                    "lpv geometry injection",
-                    &self.inject_gbuffer,
-                    &[scene, frame],
-                );
-                pass.set_bind_group(2, &self.groups[0], &[offset]);
-                pass.set_bind_group(3, &self.rsm.bind_group, &[]);
-                pass.dispatch_workgroups(
-                    fc.frame.width.div_ceil(compute::TILE),
-                    fc.frame.height.div_ceil(compute::TILE),
-                    1,
-                );
+                let pass = ("lpv geometry injection", &self.inject_gbuffer);
+                self.record(e, fc, pass, 0, Self::pixel_workgroups(fc));
             })?;
         }
-        let resolve_cells = self.geometry_cells().max(self.cells());
-        let [x, y, z] = workgroups_for(resolve_cells, 64, self.max_workgroups);
         profiler.pass(ctx, "lpv resolve", |e| {
-            let mut pass =
-                crate::gpu::dispatch::compute_pass(e, "lpv resolve", &self.resolve, &[scene, frame]);
-            pass.set_bind_group(2, &self.groups[0], &[offset]);
-            pass.dispatch_workgroups(x, y, z);
+            let cells = self.geometry_cells().max(self.cells());
+            self.record(e, fc, ("lpv resolve", &self.resolve), 0, linear(cells));
         })?;
         self.propagate(fc, profiler)
     }
 
     /// The propagation steps (pass "lpv propagation") from the light in the ping volume.
-    pub fn propagate(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+    fn propagate(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         if self.iterations == 0 {
             return Ok(());
         }
-        let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
-        let [x, y, z] = workgroups_for(self.cells(), 64, self.max_workgroups);
+        let workgroups = workgroups_for(self.cells(), 64, self.max_workgroups);
         profiler.pass(fc.ctx, "lpv propagation", |e| {
-            let mut pass =
-                crate::gpu::dispatch::compute_pass(e, "lpv propagation", &self.propagate, &[scene, frame]);
-            for (k, offset) in self.steps.offsets().take(self.iterations as usize).enumerate() {
-                pass.set_bind_group(2, &self.groups[k % 2], &[offset]);
-                pass.dispatch_workgroups(x, y, z);
+            for step in 0..self.iterations as usize {
+                self.record(e, fc, ("lpv propagation", &self.propagate), step, workgroups);
             }
         })?;
         Ok(())
@@ -512,16 +503,8 @@ impl Technique for Lpv {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         self.build_volumes(fc, profiler)?;
         self.direct.render(fc, profiler)?;
-        let offset = self.steps.offsets().next().unwrap_or(0);
-        let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
         profiler.pass(fc.ctx, "lpv lookup", |e| {
-            let mut pass = crate::gpu::dispatch::compute_pass(e, "lpv lookup", &self.shade, &[scene, frame]);
-            pass.set_bind_group(2, &self.groups[0], &[offset]);
-            pass.dispatch_workgroups(
-                fc.frame.width.div_ceil(compute::TILE),
-                fc.frame.height.div_ceil(compute::TILE),
-                1,
-            );
+            self.record(e, fc, ("lpv lookup", &self.shade), 0, Self::pixel_workgroups(fc));
         })?;
         Ok(())
     }
@@ -539,8 +522,11 @@ impl Technique for Lpv {
     }
 
     fn counters(&mut self, _: &GpuContext, _: &Measured) -> Result<BTreeMap<String, f64>, RenderError> {
-        let mut c: BTreeMap<String, f64> =
-            self.bytes.iter().map(|(k, v)| (k.to_string(), *v as f64)).collect();
+        let mut c = BTreeMap::new();
+        let light: u64 = self.volumes.iter().map(wgpu::Buffer::size).sum();
+        c.insert("lpv_light_bytes".into(), light as f64);
+        c.insert("lpv_injection_bytes".into(), self.light_fixed.size() as f64);
+        c.insert("lpv_geometry_bytes".into(), (self.geometry.size() + self.blocking_fixed.size()) as f64);
         c.insert("lpv_cells".into(), f64::from(self.cells()));
         c.insert("lpv_iterations".into(), f64::from(self.iterations));
         for k in 0..self.cascades {

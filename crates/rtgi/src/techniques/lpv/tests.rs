@@ -153,7 +153,7 @@ fn propagation_matches_its_cpu_twin() {
         ctx.queue.write_buffer(&lpv.params_buffer, 0, bytemuck::bytes_of(&lpv.params));
         let fc = FrameContext::still(ctx, &f.gpu_scene, &f.frame);
         lpv.propagate(&fc, &mut Profiler::new(ctx, TimingMode::Passes)).expect("propagate");
-        let gpu_last = read_vec4(ctx, &lpv.volumes[lpv.final_step_volume()]);
+        let gpu_last = read_vec4(ctx, &lpv.volumes[iterations % 2]);
         let gpu_sum = read_vec4(ctx, &lpv.volumes[2]);
 
         let mut cpu = light.clone();
