@@ -185,8 +185,7 @@ def main():
         lines += [f"## {scene} ({width}×{height})", "",
                   "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time |", "|---|---|---|---|---|"]
         for c in sc:
-            p = m.path_flip_at(sc, c["frame_ms"])
-            at = f"{p:.4f}" if p is not None and c["technique"] != "path" else "–"
+            at = m.path_flip_text(sc, c)
             lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {c['error']['flip']:.4f} | "
                          f"{c['error']['rel_mse']:.5f} | {at} |")
         lines.append("")

@@ -64,8 +64,7 @@ def main():
                   "| cell | ms/frame | GI ms | GI ms / rsm's | FLIP | relMSE | path's FLIP at this time |",
                   "|---|---|---|---|---|---|---|"]
         for c in sc:
-            p = m.path_flip_at(sc, c["frame_ms"])
-            at = f"{p:.4f}" if p is not None and c["technique"] != "path" else "–"
+            at = m.path_flip_text(sc, c)
             gi = f"{gi_ms(c):.2f}" if c["technique"] in ("lpv", "rsm") else "–"
             ratio = f"{gi_ms(c) / gi_ms(rsm):.2f}" if rsm and c["technique"] == "lpv" and gi_ms(rsm) > 0 else "–"
             lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {gi} | {ratio} | {c['error']['flip']:.4f} | "

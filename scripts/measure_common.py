@@ -234,6 +234,13 @@ def path_flip_at(cells, ms):
     return None
 
 
+def path_flip_text(cells, cell):
+    """The "path's FLIP at this time" column of `cell` among `cells` (one scene's): "–" for path itself
+    or outside path's times."""
+    p = path_flip_at(cells, cell["frame_ms"])
+    return f"{p:.4f}" if p is not None and cell["technique"] != "path" else "–"
+
+
 def run_suite_into_doc(rtgi, out, doc_dir, suite_path, size, doc):
     """Runs `rtgi bench suite_path --images` into `out` (at `size` instead of the suite's own when given)
     and copies its report to doc_dir/DOC-bench/. Returns (suite as parsed, size, results, the cells with
