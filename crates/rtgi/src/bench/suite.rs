@@ -467,7 +467,8 @@ warmup = 5
                 "lpv.toml",
                 "quick.toml",
                 "rsm-timing.toml",
-                "rsm.toml"
+                "rsm.toml",
+                "vxgi.toml"
             ]
         );
         // The scripts' suites use the per-scene overrides: bumpy-glossy at its own size, with the same

@@ -65,6 +65,38 @@ pub fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu
     }
 }
 
+/// A bind-group layout entry for a 3-D storage texture visible to compute shaders.
+pub fn storage_texture_3d_entry(
+    binding: u32,
+    format: wgpu::TextureFormat,
+    access: wgpu::StorageTextureAccess,
+) -> wgpu::BindGroupLayoutEntry {
+    let mut entry = storage_texture_entry(binding, format, access);
+    if let wgpu::BindingType::StorageTexture { view_dimension, .. } = &mut entry.ty {
+        *view_dimension = wgpu::TextureViewDimension::D3;
+    }
+    entry
+}
+
+/// A bind-group layout entry for a sampled 3-D texture.
+pub fn texture_3d_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu::BindGroupLayoutEntry {
+    let mut entry = texture_entry(binding, sample_type);
+    if let wgpu::BindingType::Texture { view_dimension, .. } = &mut entry.ty {
+        *view_dimension = wgpu::TextureViewDimension::D3;
+    }
+    entry
+}
+
+/// A bind-group layout entry for a filtering sampler.
+pub fn filtering_sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        count: None,
+    }
+}
+
 /// A bind-group layout entry for a storage buffer.
 pub fn storage_buffer_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     buffer_layout_entry(binding, wgpu::ShaderStages::COMPUTE, wgpu::BufferBindingType::Storage { read_only })

@@ -22,10 +22,14 @@ pub fn fixture(scene: &str, w: u32, h: u32) -> Fixture {
 
 /// The built-in `scene` with `settings`, seen at `w`×`h`.
 pub fn fixture_with(scene: &str, settings: &[(&str, &str)], w: u32, h: u32) -> Fixture {
-    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let settings: Vec<(String, String)> =
         settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let scene = crate::scene::builtin::build(scene, &settings).expect("scene");
+    fixture_of(crate::scene::builtin::build(scene, &settings).expect("scene"), w, h)
+}
+
+/// `scene` seen at `w`×`h`.
+pub fn fixture_of(scene: crate::scene::Scene, w: u32, h: u32) -> Fixture {
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
     let shadows = ShadowSettings { size: 256, filter_radius: 1, depth_bias: 1e-4, normal_offset: 1.5 };
     let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, Some(shadows)).expect("frame");

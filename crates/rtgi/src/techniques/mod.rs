@@ -15,6 +15,7 @@ pub mod igi;
 pub mod lpv;
 pub mod path;
 pub mod rsm;
+pub mod vxgi;
 
 use std::collections::BTreeMap;
 
@@ -204,6 +205,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         rsm::SII_INFO,
         ddgi::INFO,
         lpv::INFO,
+        vxgi::INFO,
     ]
 }
 

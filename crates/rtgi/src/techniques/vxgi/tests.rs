@@ -1,0 +1,202 @@
+//! Shader validation, voxelisation of a known box, and cones through empty and walled volumes.
+
+use super::*;
+use crate::shaders::validate;
+
+fn settings(grid: u32, anisotropic: bool) -> ShaderSettings {
+    ShaderSettings {
+        grid,
+        diffuse_cones: 5,
+        diffuse_tan: 0.7,
+        step: 0.5,
+        max_distance: grid as f32,
+        specular_cone: true,
+        anisotropic,
+        inject_samples: 4,
+    }
+}
+
+#[test]
+fn shaders_validate_and_the_volume_matches() {
+    for anisotropic in [true, false] {
+        let defines = || settings(16, anisotropic).defines().u32("TILE", 8);
+        validate("vxgi voxelization", &voxelize_source(), &defines());
+        validate("vxgi injection", &inject_source(), &defines());
+        validate("vxgi mips", &mips_source(), &defines());
+        let m = validate("vxgi cone tracing", &shade_source(), &defines());
+        crate::shaders::layout::assert_layout(
+            &m,
+            "VxgiVolume",
+            size_of::<VxgiVolume>(),
+            &[("corner_voxel", std::mem::offset_of!(VxgiVolume, corner_voxel))],
+        );
+    }
+}
+
+use crate::gpu::TimingMode;
+use crate::gpu::readback::read_texture_level;
+use crate::params::ParamValues;
+use crate::techniques::fixture::Fixture;
+
+fn vxgi_with(f: &Fixture, settings: &[(&str, &str)]) -> Vxgi {
+    let settings: Vec<(String, String)> =
+        settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    let params = ParamValues::from_settings("vxgi", INFO.params, &settings).expect("params");
+    Vxgi::new(&f.setup(&params)).expect("vxgi")
+}
+
+fn words(ctx: &GpuContext, texture: &wgpu::Texture) -> Vec<u32> {
+    bytemuck::cast_slice(&read_texture_level(ctx, texture, 0).expect("readback")).to_vec()
+}
+
+/// Cones traced by a test entry point through `v`'s final volume: each probe is (origin in grid units,
+/// half-angle tangent), (direction, max distance in voxels); returns premultiplied radiance and opacity.
+fn trace_probes(f: &Fixture, v: &Vxgi, probes: &[([f32; 4], [f32; 4])]) -> Vec<[f32; 4]> {
+    let ctx = &f.ctx;
+    let wgsl = format!(
+        "{}\n@group(3) @binding(0) var<storage, read_write> probes: array<vec4f>;\n\
+         @compute @workgroup_size(1) fn trace_probe(@builtin(global_invocation_id) id: vec3u) {{\n\
+         let o = probes[3u * id.x]; let d = probes[3u * id.x + 1u];\n\
+         probes[3u * id.x + 2u] = cone_trace(o.xyz, normalize(d.xyz), o.w, d.w, 1.0); }}",
+        shade_source()
+    );
+    let data: Vec<[f32; 4]> = probes.iter().flat_map(|(o, d)| [*o, *d, [0.0; 4]]).collect();
+    let buffer = compute::storage_buffer(ctx, "probes", (data.len() * 16) as u64);
+    ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&data));
+    let layout = compute::layout(ctx, "probes", &[compute::storage_buffer_entry(0, false)]);
+    let group = compute::bind_group(ctx, "probes", &layout, &[buffer.as_entire_binding()]);
+    let layouts = [&f.gpu_scene.bind_group_layout, &f.frame.bind_group_layout, &v.layout, &layout];
+    let pipeline = compute::pipeline(ctx, "probes", &wgsl, v.settings.defines(), "trace_probe", &layouts)
+        .expect("pipeline");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    {
+        let groups = [&f.gpu_scene.bind_group, &f.frame.bind_group, &v.shade_group, &group];
+        let mut pass = crate::gpu::dispatch::compute_pass(&mut encoder, "probes", &pipeline, &groups[..2]);
+        pass.set_bind_group(2, groups[2], &[0]);
+        pass.set_bind_group(3, groups[3], &[]);
+        pass.dispatch_workgroups(probes.len() as u32, 1, 1);
+    }
+    ctx.queue.submit([encoder.finish()]);
+    let out: Vec<[f32; 4]> = bytemuck::cast_slice(
+        &crate::gpu::readback::read_buffer(ctx, &buffer, 0, buffer.size()).expect("readback"),
+    )
+    .to_vec();
+    (0..probes.len()).map(|i| out[3 * i + 2]).collect()
+}
+
+/// A scene of `meshes` (material 0 white, 1 black) under a uniform environment, camera outside.
+fn scene_of(meshes: Vec<crate::scene::Mesh>) -> crate::scene::Scene {
+    use crate::scene::{Camera, Environment, Material, Scene};
+    Scene {
+        name: "vxgi test".into(),
+        meshes,
+        materials: vec![
+            Material::diffuse("white", glam::Vec3::splat(0.8)),
+            Material::diffuse("black", glam::Vec3::ZERO),
+        ],
+        environment: Environment::Uniform(glam::Vec3::ONE),
+        camera: Camera {
+            position: glam::Vec3::new(0.5, 0.5, 4.0),
+            target: glam::Vec3::splat(0.5),
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+fn voxelized(f: &Fixture, settings: &[(&str, &str)]) -> Vxgi {
+    let mut v = vxgi_with(f, settings);
+    let fc = FrameContext::still(&f.ctx, &f.gpu_scene, &f.frame);
+    v.render_frame(&fc, &mut Profiler::new(&f.ctx, TimingMode::Passes)).expect("frame");
+    v
+}
+
+/// The box [0, 1]³ in a 16³ volume (a voxel of 1/14, one of margin): its faces lie on voxel faces, so
+/// it must fill exactly the shell of voxels 1..=14 (a surface on a voxel face belongs to the voxel
+/// behind it), with its albedo and, at each face's middle, that face's outward normal.
+#[test]
+fn voxelization_fills_exactly_the_cells_of_a_box() {
+    let mut b = crate::scene::builtin::shapes::MeshBuilder::new();
+    b.aabb(glam::Vec3::ZERO, glam::Vec3::ONE, 1.0);
+    let f = crate::techniques::fixture::fixture_of(scene_of(vec![b.build("box", 0)]), 16, 16);
+    let v = voxelized(&f, &[("resolution", "16")]);
+    assert_eq!(v.volume.corner_voxel, place_volume(f.gpu_scene.bounds(), 16).corner_voxel);
+    let albedo = words(&f.ctx, &v.voxel_albedo);
+    let normal = words(&f.ctx, &v.voxel_normal);
+    let mut wrong = Vec::new();
+    for z in 0..16usize {
+        for y in 0..16usize {
+            for x in 0..16usize {
+                let c = [x, y, z];
+                let inside = c.iter().all(|&k| (1..=14).contains(&k));
+                let shell = inside && c.iter().any(|&k| k == 1 || k == 14);
+                let word = albedo[(z * 16 + y) * 16 + x];
+                if (word >> 24 > 0) != shell {
+                    wrong.push(c);
+                }
+                if shell {
+                    let r = (word & 0xff) as f32 / 255.0;
+                    assert!((r - 0.8).abs() <= 1.0 / 255.0, "albedo {r} at {c:?}");
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{} voxels wrong, e.g. {:?}", wrong.len(), &wrong[..wrong.len().min(8)]);
+    // Face middles: (1, 7, 7) on −x, (14, 7, 7) on +x, (7, 1, 7) on −y ...
+    for (c, n) in
+        [([1, 7, 7], [-1, 0, 0]), ([14, 7, 7], [1, 0, 0]), ([7, 1, 7], [0, -1, 0]), ([7, 7, 14], [0, 0, 1])]
+    {
+        let w = normal[(c[2] * 16 + c[1]) * 16 + c[0]];
+        let got: Vec<i8> = (0..3).map(|k| ((w >> (8 * k)) & 0xff) as u8 as i8).collect();
+        let want: Vec<i8> = n.iter().map(|&k| (k * 127) as i8).collect();
+        assert_eq!(got, want, "normal at {c:?}");
+    }
+}
+
+/// Two parallel walls under a uniform environment: a white one (x = 0.25, facing −x, lit by the
+/// environment) and a black one (x = 0.75, facing +x) behind it as seen from +x. A cone between them
+/// along the walls crosses empty space: no opacity, no radiance (all it would see is the environment
+/// beyond). A cone from −x sees the white wall's light; one from +x towards it meets the black wall
+/// first and returns none of it: opaque, black. Measured on lavapipe: the white wall returns 0.7998
+/// (albedo 0.8 × the environment's 1), the black wall 0 with opacity 1; a wide cone (tan 0.3) through
+/// the black wall lets 0.058 through (7.2 % of the white wall's light).
+#[test]
+fn cones_cross_empty_space_and_stop_at_walls() {
+    let mut white = crate::scene::builtin::shapes::MeshBuilder::new();
+    white.axis_rect(0, 0.25, glam::Vec2::ZERO, glam::Vec2::ONE, -1.0, f32::INFINITY);
+    let mut black = crate::scene::builtin::shapes::MeshBuilder::new();
+    black.axis_rect(0, 0.75, glam::Vec2::ZERO, glam::Vec2::ONE, 1.0, f32::INFINITY);
+    let scene = scene_of(vec![white.build("white", 0), black.build("black", 1)]);
+    let f = crate::techniques::fixture::fixture_of(scene, 16, 16);
+    let v = voxelized(&f, &[("resolution", "32"), ("inject_samples", "64")]);
+    let g = |p: glam::Vec3| {
+        let c = v.volume.corner_voxel;
+        (p - glam::Vec3::new(c[0], c[1], c[2])) / c[3]
+    };
+    let probe = |p: glam::Vec3, dir: [f32; 3], tan: f32| {
+        let o = g(p);
+        ([o.x, o.y, o.z, tan], [dir[0], dir[1], dir[2], 64.0])
+    };
+    let r = trace_probes(
+        &f,
+        &v,
+        &[
+            probe(glam::Vec3::new(0.5, 0.5, 0.1), [0.0, 0.0, 1.0], 0.02),
+            probe(glam::Vec3::new(0.0, 0.5, 0.5), [1.0, 0.0, 0.0], 0.02),
+            probe(glam::Vec3::new(1.0, 0.5, 0.5), [-1.0, 0.0, 0.0], 0.02),
+            probe(glam::Vec3::new(1.0, 0.5, 0.5), [-1.0, 0.0, 0.0], 0.3),
+        ],
+    );
+    eprintln!("empty {:?} white {:?} through black {:?}, wide {:?}", r[0], r[1], r[2], r[3]);
+    const LEAK: f32 = 0.072;
+    assert_eq!(r[0], [0.0; 4], "a cone through empty space gathered something");
+    assert!(r[1][3] > 0.99 && (r[1][0] - 0.8).abs() < 0.01, "the white wall: {:?}", r[1]);
+    assert_eq!(r[2], [0.0, 0.0, 0.0, 1.0], "through the black wall: {:?}", r[2]);
+    // A wide cone meets the wall in the coarse levels, where it is part of a voxel's opacity: what
+    // leaks through is the method's (measured: LEAK of the white wall's light).
+    assert!(
+        r[3][3] > 0.8 && r[3][0] < 2.0 * LEAK * r[1][0],
+        "a wide cone through the black wall: {:?}",
+        r[3]
+    );
+}
