@@ -96,21 +96,7 @@ def main():
                          f"{k['lpv_geometry_bytes'] / 2**20:.2f} |")
         lines.append("")
 
-    two = [c for c in cells if c["scene"] == "two-rooms" and c.get("image_file")]
-    if two:
-        region = m.dark_floor(width, height)
-        ref_exr = OUT / "two-rooms-reference.exr"
-        m.run([rtgi, "reference", "--scene", "two-rooms", "--size", size, "--spp", spp["two-rooms"],
-               "--out", ref_exr])
-        lines += ["## Leaks: light on two-rooms' dark floor", "",
-                  f"Mean luminance of the dark room's floor (pixels {region}: x, y, w, h) against the "
-                  "reference's; light reaches it only through the doorway.", "",
-                  "| cell | floor / reference | FLIP | relMSE |", "|---|---|---|---|"]
-        for c in two:
-            r = m.compare(rtgi, ref_exr, OUT / "images" / c["image_file"], region=region)["region"]
-            lines.append(f"| {m.label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
-                         f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f} |")
-        lines.append("")
+    lines += m.leak_table(rtgi, OUT, cells, size, spp)
     (DOC / f"{args.doc}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

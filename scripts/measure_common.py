@@ -219,6 +219,28 @@ def dark_floor(width, height):
     return f"0,{top},{width},{height - top}"
 
 
+def leak_table(rtgi, out, cells, size, spp, intro=""):
+    """The "Leaks" section: per two-rooms cell with an image, the mean luminance of the dark room's floor
+    against the reference's (rendered into `out` at `size` with the scene's reference spp), FLIP and
+    relMSE. Returns the lines (none without such cells)."""
+    two = [c for c in cells if c["scene"] == "two-rooms" and c.get("image_file")]
+    if not two:
+        return []
+    width, height = (int(v) for v in size.split("x"))
+    region = dark_floor(width, height)
+    ref_exr = out / "two-rooms-reference.exr"
+    run([rtgi, "reference", "--scene", "two-rooms", "--size", size, "--spp", spp["two-rooms"], "--out", ref_exr])
+    lines = ["## Leaks: light on two-rooms' dark floor", "",
+             f"Mean luminance of the dark room's floor (pixels {region}: x, y, w, h) against the "
+             "reference's; light reaches it only through the doorway." + intro, "",
+             "| cell | floor / reference | FLIP | relMSE |", "|---|---|---|---|"]
+    for c in two:
+        r = compare(rtgi, ref_exr, out / "images" / c["image_file"], region=region)["region"]
+        lines.append(f"| {label(c)} | {r['test_luminance'] / r['reference_luminance']:.3f} | "
+                     f"{c['error']['flip']:.4f} | {c['error']['rel_mse']:.5f} |")
+    return lines + [""]
+
+
 def label(cell):
     sweep = " ".join(f"{k}={v}" for k, v in cell["sweep"].items())
     return f"{cell['series']} {sweep}".strip()
