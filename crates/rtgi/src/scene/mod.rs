@@ -323,6 +323,14 @@ impl Aabb {
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
+
+    /// A cube of `cells`³ cubic cells centred on the box, holding it with a cell of margin on every
+    /// side (the volumes of LPV's coarsest cascade and of VXGI): its minimum corner and cell edge.
+    pub fn enclosing_cube(&self, cells: u32) -> (Vec3, f32) {
+        let n = cells as f32;
+        let cell = self.extent().max_element().max(1e-3) / (n - 2.0).max(1.0);
+        (self.center() - Vec3::splat(0.5 * n * cell), cell)
+    }
 }
 
 impl Scene {

@@ -132,15 +132,13 @@ pub fn face_solid_angles() -> (f32, f32) {
 /// side); each finer one has half the cell of the next and is centred on `camera`, its corner snapped
 /// to whole cells.
 pub fn place_cascades(bounds: crate::scene::Aabb, camera: Vec3, grid: u32, count: usize) -> LpvParams {
-    let extent = (bounds.max - bounds.min).max_element().max(1e-3);
     let n = grid as f32;
-    let coarsest = extent / (n - 2.0).max(1.0);
-    let centre = 0.5 * (bounds.min + bounds.max);
+    let (scene_corner, coarsest) = bounds.enclosing_cube(grid);
     let mut p = LpvParams::zeroed();
     for k in 0..count {
         let cell = coarsest / (1u32 << (count - 1 - k)) as f32;
         let corner = if k + 1 == count {
-            centre - Vec3::splat(0.5 * n * cell)
+            scene_corner
         } else {
             ((camera / cell).floor() - Vec3::splat((n * 0.5).floor())) * cell
         };

@@ -165,9 +165,7 @@ struct VoxelizeAxis {
 
 /// The cube of `grid`³ voxels over `bounds`: centred on them, with a voxel of margin on every side.
 pub fn place_volume(bounds: crate::scene::Aabb, grid: u32) -> VxgiVolume {
-    let extent = (bounds.max - bounds.min).max_element().max(1e-3);
-    let voxel = extent / (grid as f32 - 2.0);
-    let corner = 0.5 * (bounds.min + bounds.max) - glam::Vec3::splat(0.5 * grid as f32 * voxel);
+    let (corner, voxel) = bounds.enclosing_cube(grid);
     VxgiVolume { corner_voxel: [corner.x, corner.y, corner.z, voxel] }
 }
 
