@@ -211,7 +211,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 fn validate(p: &crate::params::ParamValues) -> Result<(), String> {
     if p.choice("volume") == "scene" && p.float("probe_spacing") > 0.0 {
         return Err(
-            "ddgi: probe_spacing applies to volume=camera; the scene's grid is spaced by probe_count".into(),
+            "probe_spacing applies to volume=camera; the scene's grid is spaced by probe_count".into()
         );
     }
     Ok(())

@@ -8,7 +8,8 @@
 // which add exactly in any order, so the volumes are the same whatever order the threads run in.
 // Light uses a scale measured on the GPU each frame (`measure_flux`): the largest possible sum of one
 // coefficient over all texels maps to 2^30, so no sum can overflow. Blocking potentials (areas in cell
-// faces, at most a few per cell) use the constant BLOCKING_SCALE.
+// faces, at most a few per cell) use the constant BLOCKING_SCALE, and so do the area-weighted albedo sums
+// of MULTIPLE_BOUNCES (an albedo is at most 1, so they stay below the area's own sum).
 
 #import common/lights.wgsl
 #import common/indirect.wgsl
@@ -73,19 +74,29 @@ fn add_fixed_light(base: u32, c: vec4f) {
     }
 }
 
-// Blocking of a surface of area `area` (facing n) in cascade `cascade`: area / cell face × ⟨−n, ω⟩⁺,
-// the fraction of a cell's cross-section it covers for light travelling in direction ω towards its
-// front; `source` 0 = the RSMs, 1 = the G-buffer (kept apart and merged by `resolve`).
-fn add_blocking(cascade: u32, position: vec3f, normal: vec3f, area: f32, source: u32) {
+// Blocking of a surface of area `area` (facing n, diffuse albedo `albedo`) in cascade `cascade`:
+// area / cell face × ⟨−n, ω⟩⁺, the fraction of a cell's cross-section it covers for light travelling in
+// direction ω towards its front; `source` 0 = the RSMs, 1 = the G-buffer (kept apart and merged by
+// `resolve`). With MULTIPLE_BOUNCES the albedo is summed weighted by the covered fraction (both sources
+// together: a mean, so a surface seen twice does not count double).
+fn add_blocking(cascade: u32, position: vec3f, normal: vec3f, area: f32, albedo: vec3f, source: u32) {
     let g = round(grid_position(cascade, position));
     if any(g < vec3f(0.0)) || any(g > vec3f(f32(GRID))) {
         return;
     }
     let s = cell_size(cascade);
-    let b = sh4_cosine_lobe(-normal) * (area / (s * s) * BLOCKING_SCALE);
-    let base = geometry_index(cascade, vec3u(g)) * 8u + source * 4u;
+    let covered = area / (s * s) * BLOCKING_SCALE;
+    let b = sh4_cosine_lobe(-normal) * covered;
+    let base = geometry_index(cascade, vec3u(g)) * GEOMETRY_SUMS;
     for (var k = 0u; k < 4u; k++) {
-        atomicAdd(&blocking_fixed[base + k], i32(round(b[k])));
+        atomicAdd(&blocking_fixed[base + source * 4u + k], i32(round(b[k])));
+    }
+    if MULTIPLE_BOUNCES {
+        let rho = clamp(albedo, vec3f(0.0), vec3f(1.0));
+        let a = vec4f(rho, 1.0) * covered;
+        for (var k = 0u; k < 4u; k++) {
+            atomicAdd(&blocking_fixed[base + 8u + k], i32(round(a[k])));
+        }
     }
 }
 
@@ -104,9 +115,14 @@ fn inject_rsm(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups
     // The texel's beam cross-section over the cosine of incidence: its area on the surface (the cosine
     // bounded against grazing texels).
     var surface_area = 0.0;
+    var albedo = vec3f(0.0);
     if GEOMETRY_VOLUME {
         let incidence = light_incidence(lights[rsm_views[c.z].light], p.position);
         surface_area = p.area / max(dot(p.normal, incidence.direction), 0.25);
+        // The RSM stores the reflected intensity I = E·A·ρ/π (map.wgsl): the albedo is recovered from
+        // the light's irradiance across the texel's beam.
+        let arriving = incidence.irradiance * p.area;
+        albedo = select(vec3f(0.0), PI * p.intensity / arriving, arriving > vec3f(0.0));
     }
     for (var k = 0u; k < lpv.cascade_count; k++) {
         let g = grid_position(k, p.position + 0.5 * cell_size(k) * p.normal);
@@ -117,7 +133,7 @@ fn inject_rsm(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups
             add_fixed_light(base + 8u, lobe * p.intensity.b);
         }
         if GEOMETRY_VOLUME {
-            add_blocking(k, p.position, p.normal, surface_area, 0u);
+            add_blocking(k, p.position, p.normal, surface_area, albedo, 0u);
         }
     }
 }
@@ -140,7 +156,8 @@ fn inject_gbuffer(@builtin(global_invocation_id) id: vec3u) {
     let n = select(s.geometric_normal, -s.geometric_normal, dot(s.geometric_normal, s.view) < 0.0);
     let cosine = max(abs(dot(n, s.view)), 0.25);
     let area = s.distance * s.distance * solid_angle / cosine;
+    let albedo = s.material.base_color * (1.0 - s.material.metallic);
     for (var k = 0u; k < lpv.cascade_count; k++) {
-        add_blocking(k, s.position, n, area, 1u);
+        add_blocking(k, s.position, n, area, albedo, 1u);
     }
 }

@@ -5,7 +5,8 @@
 //! injected as a virtual point light into a grid of order-1 SH per colour channel; the surfaces the
 //! RSMs and the G-buffer see are injected as blocking potentials into a geometry volume offset by half
 //! a cell; the light propagates iteratively to the 6 neighbours of each cell through the faces they
-//! see, attenuated by the geometry volume, and every step adds into the accumulated volume; camera
+//! see, attenuated by the geometry volume (optionally reflecting what it blocks by the blockers' albedo:
+//! further bounces), and every step adds into the accumulated volume; camera
 //! pixels read it trilinearly with their normal. Cascades: the coarsest grid covers the scene, each
 //! finer one halves the cell and follows the camera, snapped to whole cells of its own so that moving
 //! does not change what a cell holds (no flicker).
@@ -47,7 +48,11 @@ const FLUX_GROUPS: u32 = 256;
 /// Cells over which the lookup blends a cascade into the next coarser one near its border.
 const BLEND_CELLS: f32 = 2.0;
 
-const LPV_PARAMS: [ParamSpec; 12] = with_direct_params!(
+/// Fixed-point sums per geometry-volume cell: blocking from the RSMs (4), from the G-buffer (4), and the
+/// albedo sums of MULTIPLE_BOUNCES (r, g, b and the covered fraction).
+const GEOMETRY_SUMS: u64 = 12;
+
+const LPV_PARAMS: [ParamSpec; 13] = with_direct_params!(
     ParamSpec {
         name: "grid",
         kind: ParamKind::Int { min: 4, max: 128 },
@@ -75,6 +80,13 @@ const LPV_PARAMS: [ParamSpec; 12] = with_direct_params!(
               (the paper's secondary occlusion; false = light passes through walls)",
     },
     ParamSpec {
+        name: "multiple_bounces",
+        kind: ParamKind::Bool,
+        default: "false",
+        doc: "reflect the light the geometry volume blocks back into the grid, scaled by the blockers' mean \
+              albedo (the paper's multiple bounces: as many as fit in the iterations; needs geometry_volume)",
+    },
+    ParamSpec {
         name: "rsm_size",
         kind: ParamKind::Int { min: 16, max: 2048 },
         default: "256",
@@ -89,9 +101,18 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
-    validate: super::independent_params,
+    validate,
     create,
 };
+
+fn validate(p: &crate::params::ParamValues) -> Result<(), String> {
+    if p.bool("multiple_bounces") && !p.bool("geometry_volume") {
+        return Err("multiple_bounces reflects the light the geometry volume blocks; it needs \
+                    geometry_volume=true"
+            .into());
+    }
+    Ok(())
+}
 
 /// Mirrors `LpvParams` in volume.wgsl.
 #[repr(C)]
@@ -151,12 +172,14 @@ pub fn place_cascades(bounds: crate::scene::Aabb, camera: Vec3, grid: u32, count
 /// The WGSL of the volumes (prepended to every LPV pass) and its defines.
 const VOLUME_WGSL: &str = include_str!("volume.wgsl");
 
-pub fn defines(grid: u32, geometry_volume: bool) -> Defines {
+pub fn defines(grid: u32, geometry_volume: bool, multiple_bounces: bool) -> Defines {
     let (front, side) = face_solid_angles();
     Defines::new()
         .u32("GRID", grid)
         .u32("MAX_CASCADES", MAX_CASCADES as u32)
         .bool("GEOMETRY_VOLUME", geometry_volume)
+        .bool("MULTIPLE_BOUNCES", multiple_bounces)
+        .u32("GEOMETRY_SUMS", GEOMETRY_SUMS as u32)
         .f32("FRONT_SOLID_ANGLE", front)
         .f32("SIDE_SOLID_ANGLE", side)
         .f32("BLOCKING_SCALE", BLOCKING_SCALE)
@@ -202,8 +225,9 @@ pub struct Lpv {
     params: LpvParams,
     /// Light after injection / between steps (ping, pong) and the sum over steps.
     volumes: [wgpu::Buffer; 3],
+    /// Per geometry cell: blocking potential and mean albedo (two vec4f).
     geometry: wgpu::Buffer,
-    /// Injection's fixed-point sums: light, and blocking (two sources per geometry cell).
+    /// Injection's fixed-point sums: light, and blocking (two sources per geometry cell) with albedo.
     light_fixed: wgpu::Buffer,
     blocking_fixed: wgpu::Buffer,
     /// Bind group 2, with ping and pong swapped in the second.
@@ -230,15 +254,17 @@ impl Lpv {
         let cascades = p.int("cascades") as usize;
         let iterations = p.int("iterations") as u32;
         let geometry_volume = p.bool("geometry_volume");
+        let multiple_bounces = p.bool("multiple_bounces");
         let cells = u64::from(grid).pow(3) * cascades as u64;
         let geometry_cells = u64::from(grid + 1).pow(3) * cascades as u64;
         let limit = ctx.limits().max_storage_buffer_binding_size;
         let largest = cells * 48;
-        if largest > limit || geometry_cells * 32 > limit {
+        let geometry_bytes = geometry_cells * GEOMETRY_SUMS * 4;
+        if largest > limit || geometry_bytes > limit {
             return Err(RenderError::InvalidSettings(format!(
                 "lpv: {cascades} cascade(s) of {grid}³ cells need storage buffers of {} MiB, over the device's \
                  max_storage_buffer_binding_size of {} MiB; lower grid or cascades",
-                largest.max(geometry_cells * 32) >> 20,
+                largest.max(geometry_bytes) >> 20,
                 limit >> 20
             )));
         }
@@ -259,13 +285,13 @@ impl Lpv {
         };
         let buffer = |label: &str, size: u64| compute::storage_buffer(ctx, label, size.max(16));
         let light_fixed = buffer("lpv injected light (fixed point)", cells * 48);
-        let blocking_fixed = buffer("lpv blocking (fixed point)", geometry_cells * 32);
+        let blocking_fixed = buffer("lpv blocking (fixed point)", geometry_bytes);
         let volumes = [
             buffer("lpv light ping", cells * 48),
             buffer("lpv light pong", cells * 48),
             buffer("lpv accumulated light", cells * 48),
         ];
-        let geometry = buffer("lpv geometry volume", geometry_cells * 16);
+        let geometry = buffer("lpv geometry volume", geometry_cells * 32);
         // The scale and the partial sums of the FLUX_GROUPS workgroups.
         let flux_scale = buffer("lpv flux scale", 4 * (1 + u64::from(FLUX_GROUPS)));
         let step_values: Vec<PropagationStep> =
@@ -312,7 +338,7 @@ impl Lpv {
                 ],
             )
         });
-        let defines = defines(grid, geometry_volume);
+        let defines = defines(grid, geometry_volume, multiple_bounces);
         let layouts =
             [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout, &rsm.layout];
         let pipeline = |name: &str, source: &str, entry: &str, layouts: &[&wgpu::BindGroupLayout]| {
@@ -425,19 +451,24 @@ impl Lpv {
 }
 
 /// The CPU twin of one propagation step (propagate.wgsl), for tests: `light[cell][channel]` order-1
-/// SH of one cascade of `grid`³ cells, `geometry` its (grid+1)³ blocking potentials (None: no
-/// occlusion). Returns the light gathered by each cell.
+/// SH of one cascade of `grid`³ cells, `geometry` its (grid+1)³ cells of blocking potential and albedo
+/// sums (rgb: albedo × covered fraction, w: covered fraction; None: no occlusion), `bounces` the MULTIPLE_BOUNCES reflection of blocked light. Returns the light
+/// gathered by each cell.
 pub fn propagate_step_cpu(
     grid: usize,
     light: &[[[f32; 4]; 3]],
-    geometry: Option<&[[f32; 4]]>,
+    geometry: Option<&[[[f32; 4]; 2]]>,
+    bounces: bool,
 ) -> Vec<[[f32; 4]; 3]> {
     use crate::sh::{cosine_lobe4, eval4};
     const AXES: [[i32; 3]; 6] = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
     let (front, side) = face_solid_angles();
     let n = grid as i32;
     let index = |c: [i32; 3]| ((c[2] * n + c[1]) * n + c[0]) as usize;
-    let blocking_at = |g: Vec3| -> [f32; 4] {
+    let vec = |c: [i32; 3]| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
+    let outside = |c: [i32; 3]| c.iter().any(|&c| c < 0 || c >= n);
+    // Trilinear in the geometry volume (cells on whole grid positions); slot 0 blocking, 1 albedo.
+    let geometry_at = |g: Vec3, slot: usize| -> [f32; 4] {
         let geometry = geometry.unwrap_or(&[]);
         let base = g.floor().clamp(Vec3::ZERO, Vec3::splat((grid - 1) as f32));
         let f = (g - base).clamp(Vec3::ZERO, Vec3::ONE);
@@ -446,12 +477,35 @@ pub fn propagate_step_cpu(
             let corner = [k & 1, (k >> 1) & 1, k >> 2];
             let w: f32 = (0..3).map(|a| if corner[a] == 1 { f[a] } else { 1.0 - f[a] }).product();
             let c: [usize; 3] = std::array::from_fn(|a| base[a] as usize + corner[a]);
-            let b = geometry[(c[2] * (grid + 1) + c[1]) * (grid + 1) + c[0]];
+            let b = geometry[(c[2] * (grid + 1) + c[1]) * (grid + 1) + c[0]][slot];
             for (s, v) in sum.iter_mut().zip(b) {
                 *s += v * w;
             }
         }
         sum
+    };
+    // The flux per channel that `source` sends through each face of the cell beyond its face towards
+    // `dir` (scaled by `weight(towards)`), each with that face's outward normal.
+    let through_faces = |source: &[[f32; 4]; 3], dir: [i32; 3], weight: &dyn Fn(Vec3) -> f32| {
+        let faces = AXES.iter().filter(|&&face| face != dir.map(|c| -c));
+        faces
+            .map(|&face| {
+                let towards = (vec(dir) + 0.5 * vec(face)).normalize();
+                let solid_angle = if face == dir { front } else { side };
+                let w = weight(towards);
+                let flux: [f32; 3] =
+                    std::array::from_fn(|ch| eval4(&source[ch], towards).max(0.0) * solid_angle * w);
+                (vec(face), flux)
+            })
+            .collect::<Vec<_>>()
+    };
+    let add_lobe = |sum: &mut [[f32; 4]; 3], normal: Vec3, flux: [f32; 3]| {
+        let lobe = cosine_lobe4(normal);
+        for (channel, s) in sum.iter_mut().enumerate() {
+            for k in 0..4 {
+                s[k] += lobe[k] * std::f32::consts::FRAC_1_PI * flux[channel];
+            }
+        }
     };
     let mut out = vec![[[0.0f32; 4]; 3]; grid * grid * grid];
     for z in 0..n {
@@ -461,33 +515,39 @@ pub fn propagate_step_cpu(
                 let mut gathered = [[0.0f32; 4]; 3];
                 for dir in AXES {
                     let from = [x - dir[0], y - dir[1], z - dir[2]];
-                    if from.iter().any(|&c| c < 0 || c >= n) {
+                    if outside(from) {
                         continue;
                     }
-                    let source = &light[index(from)];
-                    let blocking = geometry.map(|_| {
-                        blocking_at(Vec3::new(
-                            cell[0] as f32 + 0.5 - 0.5 * dir[0] as f32,
-                            cell[1] as f32 + 0.5 - 0.5 * dir[1] as f32,
-                            cell[2] as f32 + 0.5 - 0.5 * dir[2] as f32,
-                        ))
-                    });
-                    for face in AXES {
-                        if face == dir.map(|c| -c) {
+                    let blocking =
+                        geometry.map(|_| geometry_at(vec(cell) + Vec3::splat(0.5) - 0.5 * vec(dir), 0));
+                    let transmit =
+                        |towards: Vec3| blocking.map_or(1.0, |b| 1.0 - eval4(&b, towards).clamp(0.0, 1.0));
+                    for (face, flux) in through_faces(&light[index(from)], dir, &transmit) {
+                        add_lobe(&mut gathered, face, flux);
+                    }
+                }
+                if bounces && geometry.is_some() {
+                    for dir in AXES {
+                        if outside([x + dir[0], y + dir[1], z + dir[2]]) {
                             continue;
                         }
-                        let towards = (Vec3::new(dir[0] as f32, dir[1] as f32, dir[2] as f32)
-                            + 0.5 * Vec3::new(face[0] as f32, face[1] as f32, face[2] as f32))
-                        .normalize();
-                        let solid_angle = if face == dir { front } else { side };
-                        let transmit = blocking.map_or(1.0, |b| 1.0 - eval4(&b, towards).clamp(0.0, 1.0));
-                        let lobe = cosine_lobe4(Vec3::new(face[0] as f32, face[1] as f32, face[2] as f32));
-                        for (channel, sum) in gathered.iter_mut().enumerate() {
-                            let flux = eval4(&source[channel], towards).max(0.0) * solid_angle * transmit;
-                            for k in 0..4 {
-                                sum[k] += lobe[k] * std::f32::consts::FRAC_1_PI * flux;
+                        let face_centre = vec(cell) + Vec3::splat(0.5) + 0.5 * vec(dir);
+                        let b = geometry_at(face_centre, 0);
+                        let a = geometry_at(face_centre, 1);
+                        let albedo: [f32; 3] =
+                            std::array::from_fn(|ch| if a[3] > 0.0 { a[ch] / a[3] } else { 0.0 });
+                        let block = |towards: Vec3| eval4(&b, towards).clamp(0.0, 1.0);
+                        let mut blocked = [0.0f32; 3];
+                        for (_, flux) in through_faces(&light[index(cell)], dir, &block) {
+                            for ch in 0..3 {
+                                blocked[ch] += flux[ch];
                             }
                         }
+                        add_lobe(
+                            &mut gathered,
+                            -vec(dir),
+                            std::array::from_fn(|ch| albedo[ch] * blocked[ch]),
+                        );
                     }
                 }
                 out[index(cell)] = gathered;

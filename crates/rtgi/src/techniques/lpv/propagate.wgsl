@@ -7,6 +7,13 @@
 // Φ_f/π ⟨n_f, ω⟩⁺ (Kaplanyan & Dachsbacher 2010, §3.3). With GEOMETRY_VOLUME, light reaching a face
 // is attenuated by 1 − B(ω_c), the blocking potential interpolated at the face between the two cells,
 // except in the first step (the injected light would be blocked by the surfaces it leaves).
+//
+// MULTIPLE_BOUNCES (the paper's §5.2): the light a cell sends towards a neighbour and the geometry
+// between them blocks is not lost but reflected back into the cell by the blockers' mean albedo ρ, as a
+// cosine lobe about the face's normal facing the cell (the cell-face discretisation's surface normal):
+// Φ_f · B(ω_c) · ρ per face f, so with ρ = 1 a step only redirects light (what the face transmits plus
+// what it reflects is what reached it). The reflected light propagates on in the next steps, and its
+// blocked part is reflected again: every bounce that fits in the iterations.
 
 @group(2) @binding(3) var<storage, read_write> source: array<vec4f>;
 @group(2) @binding(4) var<storage, read_write> destination: array<vec4f>;
@@ -22,8 +29,9 @@ fn load_light(i: u32) -> CellLight {
     return CellLight(source[3u * i], source[3u * i + 1u], source[3u * i + 2u]);
 }
 
-// The geometry volume of `cascade` at grid position g (its cells are centred on whole grid positions).
-fn blocking_at(cascade: u32, g: vec3f) -> vec4f {
+// The geometry volume of `cascade` at grid position g (its cells are centred on whole grid positions):
+// `slot` 0 the blocking potential, 1 the albedo.
+fn geometry_at(cascade: u32, g: vec3f, slot: u32) -> vec4f {
     let base = clamp(floor(g), vec3f(0.0), vec3f(f32(GRID - 1u)));
     let f = clamp(g - base, vec3f(0.0), vec3f(1.0));
     let b = vec3u(base);
@@ -31,7 +39,7 @@ fn blocking_at(cascade: u32, g: vec3f) -> vec4f {
     for (var k = 0u; k < 8u; k++) {
         let corner = vec3u(k & 1u, (k >> 1u) & 1u, k >> 2u);
         let w = select(1.0 - f, f, corner == vec3u(1u));
-        sum += geometry[geometry_index(cascade, b + corner)] * (w.x * w.y * w.z);
+        sum += geometry[2u * geometry_index(cascade, b + corner) + slot] * (w.x * w.y * w.z);
     }
     return sum;
 }
@@ -56,7 +64,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
         let occluded = GEOMETRY_VOLUME && propagation.index > 0u;
         var blocking = vec4f(0.0);
         if occluded {
-            blocking = blocking_at(cascade, vec3f(cell) + 0.5 - 0.5 * vec3f(dir));
+            blocking = geometry_at(cascade, vec3f(cell) + 0.5 - 0.5 * vec3f(dir), 0u);
         }
         for (var f = 0u; f < 6u; f++) {
             let face = AXES[f];
@@ -73,6 +81,35 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
             gathered.r += lobe * flux.r;
             gathered.g += lobe * flux.g;
             gathered.b += lobe * flux.b;
+        }
+    }
+    if MULTIPLE_BOUNCES && GEOMETRY_VOLUME && propagation.index > 0u {
+        let own = load_light(i);
+        for (var a = 0u; a < 6u; a++) {
+            let dir = AXES[a];
+            let next = cell + dir;
+            if any(next < vec3i(0)) || any(next >= vec3i(i32(GRID))) {
+                continue;
+            }
+            let face_centre = vec3f(cell) + 0.5 + 0.5 * vec3f(dir);
+            let blocking = geometry_at(cascade, face_centre, 0u);
+            var blocked = vec3f(0.0);
+            for (var f = 0u; f < 6u; f++) {
+                let face = AXES[f];
+                if all(face == -dir) {
+                    continue;
+                }
+                let towards = normalize(vec3f(dir) + 0.5 * vec3f(face));
+                let solid_angle = select(SIDE_SOLID_ANGLE, FRONT_SOLID_ANGLE, all(face == dir));
+                blocked += max(eval_cell(own, towards), vec3f(0.0)) * solid_angle
+                    * saturate(dot(blocking, sh4_basis(towards)));
+            }
+            let albedo = geometry_at(cascade, face_centre, 1u);
+            let reflected = select(vec3f(0.0), albedo.rgb / albedo.w, albedo.w > 0.0) * blocked;
+            let lobe = sh4_cosine_lobe(-vec3f(dir)) * INV_PI;
+            gathered.r += lobe * reflected.r;
+            gathered.g += lobe * reflected.g;
+            gathered.b += lobe * reflected.b;
         }
     }
     destination[3u * i] = gathered.r;

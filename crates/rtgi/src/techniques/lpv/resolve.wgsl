@@ -1,7 +1,8 @@
 // Fixed-point sums of the injection to floats (prepended: volume.wgsl): the injected light starts the
 // propagation (`source`) and the accumulated result; the geometry volume takes, per cell, whichever of
 // its two sources (RSMs, G-buffer) blocks more, so a surface both see counts once (the paper merges
-// them alike). The sums are cleared for the next frame.
+// them alike), and (MULTIPLE_BOUNCES) the mean albedo of both sources' surfaces. The sums are cleared
+// for the next frame.
 
 @group(2) @binding(1) var<storage, read_write> light_fixed: array<atomic<i32>>;
 @group(2) @binding(2) var<storage, read_write> blocking_fixed: array<atomic<i32>>;
@@ -39,9 +40,15 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
         }
     }
     if i < lpv.cascade_count * geometry_cells_per_cascade() {
-        let from_lights = take_blocking(i * 8u);
-        let from_camera = take_blocking(i * 8u + 4u);
+        let base = i * GEOMETRY_SUMS;
+        let from_lights = take_blocking(base);
+        let from_camera = take_blocking(base + 4u);
         let b = select(from_camera, from_lights, from_lights.x >= from_camera.x);
-        geometry[i] = b * (1.0 / BLOCKING_SCALE);
+        geometry[2u * i] = b * (1.0 / BLOCKING_SCALE);
+        if MULTIPLE_BOUNCES {
+            // Kept as sums (albedo × covered fraction, covered fraction): interpolated between cells
+            // and divided where used, the mean is over the surfaces, not over empty cells too.
+            geometry[2u * i + 1u] = take_blocking(base + 8u) * (1.0 / BLOCKING_SCALE);
+        }
     }
 }
