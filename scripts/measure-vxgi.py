@@ -103,15 +103,15 @@ def main():
         sc = [c for c in cells if c["scene"] == scene]
         rsm = next((c for c in sc if c["technique"] == "rsm"), None)
         lines += [f"## {scene} ({width}×{height})", "",
-                  "| cell | ms/frame | GI ms | GI ms / rsm's | FLIP | relMSE | path's FLIP at this time |",
-                  "|---|---|---|---|---|---|---|"]
+                  "| cell | ms/frame | GI ms | GI ms / rsm's | FLIP | relMSE | path's FLIP at this time | on the "
+                  "front |", "|---|---|---|---|---|---|---|---|"]
         for c in sc:
             at = m.path_flip_text(sc, c)
             gi = f"{gi_ms(c):.2f}" if c["technique"] in GI_PASSES else "–"
             ratio = (f"{gi_ms(c) / gi_ms(rsm):.2f}" if rsm and c["technique"] in ("vxgi", "lpv")
                      and gi_ms(rsm) > 0 else "–")
             lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {gi} | {ratio} | {c['error']['flip']:.4f} | "
-                         f"{c['error']['rel_mse']:.5f} | {at} |")
+                         f"{c['error']['rel_mse']:.5f} | {at} | {'yes' if m.on_front(sc, c) else 'no'} |")
         lines.append("")
         default = next((c for c in sc if c["series"] == "vxgi" and c["sweep"].get("resolution") == "128"), None)
         if default:

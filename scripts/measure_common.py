@@ -256,6 +256,14 @@ def path_flip_at(cells, ms):
     return None
 
 
+def on_front(cells, cell):
+    """Whether `cell` is on the error-vs-time front of `cells` (one scene's): no other cell is both
+    faster and more accurate (FLIP)."""
+    t, f = cell["frame_ms"], cell["error"]["flip"]
+    return not any(o["frame_ms"] <= t and o["error"]["flip"] <= f and (o["frame_ms"], o["error"]["flip"]) != (t, f)
+                   for o in cells)
+
+
 def path_flip_text(cells, cell):
     """The "path's FLIP at this time" column of `cell` among `cells` (one scene's): "–" for path itself
     or outside path's times."""
