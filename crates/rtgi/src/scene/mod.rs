@@ -331,6 +331,26 @@ impl Aabb {
         let cell = self.extent().max_element().max(1e-3) / (n - 2.0).max(1.0);
         (self.center() - Vec3::splat(0.5 * n * cell), cell)
     }
+
+    /// `count` nested cubes of `cells`³ cells, finest first (LPV's cascades, VXGI's clipmap levels): the
+    /// coarsest is the `enclosing_cube`, each finer one halves the cell and is centred on `focus`, its
+    /// corner snapped to whole multiples of `snap_cells` of its cells, so that a focus moving by less
+    /// than that leaves it where it was and the coarser cells its own cells make up (mips) stay aligned
+    /// to the cube. Each: minimum corner and cell edge.
+    pub fn nested_cubes(&self, focus: Vec3, cells: u32, count: usize, snap_cells: u32) -> Vec<(Vec3, f32)> {
+        let (scene_corner, coarsest) = self.enclosing_cube(cells);
+        (0..count)
+            .map(|k| {
+                let cell = coarsest / (1u32 << (count - 1 - k)) as f32;
+                if k + 1 == count {
+                    return (scene_corner, cell);
+                }
+                let snap = cell * snap_cells as f32;
+                let half = (cells / 2 / snap_cells) as f32;
+                (((focus / snap).floor() - Vec3::splat(half)) * snap, cell)
+            })
+            .collect()
+    }
 }
 
 impl Scene {

@@ -149,20 +149,12 @@ pub fn face_solid_angles() -> (f32, f32) {
     (front as f32, side as f32)
 }
 
-/// Where the cascades lie this frame: the coarsest covers `bounds` (cubic, a cell of margin on every
-/// side); each finer one has half the cell of the next and is centred on `camera`, its corner snapped
-/// to whole cells.
+/// Where the cascades lie this frame (`Aabb::nested_cubes`): the coarsest covers `bounds` (cubic, a cell
+/// of margin on every side); each finer one has half the cell of the next and is centred on `camera`,
+/// its corner snapped to whole cells.
 pub fn place_cascades(bounds: crate::scene::Aabb, camera: Vec3, grid: u32, count: usize) -> LpvParams {
-    let n = grid as f32;
-    let (scene_corner, coarsest) = bounds.enclosing_cube(grid);
     let mut p = LpvParams::zeroed();
-    for k in 0..count {
-        let cell = coarsest / (1u32 << (count - 1 - k)) as f32;
-        let corner = if k + 1 == count {
-            scene_corner
-        } else {
-            ((camera / cell).floor() - Vec3::splat((n * 0.5).floor())) * cell
-        };
+    for (k, (corner, cell)) in bounds.nested_cubes(camera, grid, count, 1).into_iter().enumerate() {
         p.cascades[k] = [corner.x, corner.y, corner.z, cell];
     }
     p.cascade_count = count as u32;

@@ -10,13 +10,13 @@
 
 @group(2) @binding(3) var radiance_out: texture_storage_3d<rgba16float, write>;
 
-// The surface a voxel stands for, lit on its normal's side; shadow rays leave a voxel out along the
-// normal so that they clear the voxel's own surfaces wherever in it they lie.
-fn voxel_surface(c: vec3u, v: Voxel) -> GSurface {
+// The surface voxel c of level k stands for, lit on its normal's side; shadow rays leave a voxel out
+// along the normal so that they clear the voxel's own surfaces wherever in it they lie.
+fn voxel_surface(k: u32, c: vec3u, v: Voxel) -> GSurface {
     let n = voxel_direction(v);
     var s: GSurface;
     s.valid = true;
-    s.position = world_position(vec3f(c) + 0.5);
+    s.position = world_position(k, vec3f(c) + 0.5);
     s.normal = n;
     s.geometric_normal = n;
     s.view = n;
@@ -26,37 +26,42 @@ fn voxel_surface(c: vec3u, v: Voxel) -> GSurface {
     return s;
 }
 
+// One dispatch per level (`dispatch_slot.clip`).
 @compute @workgroup_size(4, 4, 4)
 fn inject(@builtin(global_invocation_id) id: vec3u) {
     if any(id >= vec3u(GRID)) {
         return;
     }
-    let v = load_voxel(id);
+    let k = dispatch_slot.clip;
+    let t = clip_texel(k, id);
+    let v = load_voxel(t);
     if !v.occupied {
-        textureStore(radiance_out, id, vec4f(0.0));
+        textureStore(radiance_out, t, vec4f(0.0));
         return;
     }
-    let s = voxel_surface(id, v);
-    let origin = s.position + s.normal * voxel_size();
-    var rng = rng_new(id.xy, id.z, frame.seed);
+    let s = voxel_surface(k, id, v);
+    let origin = s.position + s.normal * voxel_size(k);
+    var rng = rng_new(t.xy, t.z, frame.seed);
     let radiance = direct_light(s, origin, &rng, INJECT_SAMPLES, INJECT_SAMPLES, true);
-    textureStore(radiance_out, id, vec4f(radiance, 1.0));
+    textureStore(radiance_out, t, vec4f(radiance, 1.0));
 }
 
 // The second bounce: each voxel adds what its diffuse cones gather from the first bounce's volume
-// (bound as radiance_base / radiance_directional) times albedo / π.
+// (bound as radiance_base / radiance_directional) times albedo / π. One dispatch per level.
 @compute @workgroup_size(4, 4, 4)
 fn bounce(@builtin(global_invocation_id) id: vec3u) {
     if any(id >= vec3u(GRID)) {
         return;
     }
-    let v = load_voxel(id);
-    let first = textureLoad(radiance_base, id, 0);
+    let k = dispatch_slot.clip;
+    let t = clip_texel(k, id);
+    let v = load_voxel(t);
+    let first = textureLoad(radiance_base, t, 0);
     if !v.occupied {
-        textureStore(radiance_out, id, first);
+        textureStore(radiance_out, t, first);
         return;
     }
     let n = voxel_direction(v);
-    let e = cone_irradiance(vec3f(id) + 0.5 + n, n);
-    textureStore(radiance_out, id, vec4f(first.rgb + v.albedo * INV_PI * e, first.a));
+    let e = cone_irradiance(world_position(k, vec3f(id) + 0.5) + n * voxel_size(k), n);
+    textureStore(radiance_out, t, vec4f(first.rgb + v.albedo * INV_PI * e, first.a));
 }

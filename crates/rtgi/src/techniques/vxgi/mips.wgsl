@@ -11,8 +11,10 @@ fn over(near: vec4f, far: vec4f) -> vec4f {
 }
 
 fn directional_level(id: vec3u, directional_source: bool) {
-    let size = textureDimensions(destination).y;
-    if any(id >= vec3u(size)) {
+    // Clipmap levels are stacked along z (depth CLIPS × size): each level's children stay in its block.
+    let dims = textureDimensions(destination);
+    let size = dims.y;
+    if id.x >= size || id.y >= size || id.z >= dims.z {
         return;
     }
     for (var d = 0u; d < 6u; d++) {

@@ -20,7 +20,13 @@
 //! rasterisation without the conservative mode; compute is fast and raster slow on the GPUs rtgi
 //! targets), and injection lights each voxel with the same direct-light routine as the camera's
 //! pixels (traced shadow rays instead of a shadow map; emissive triangles and the environment
-//! included) instead of splatting a light-view map. The volume covers the whole scene: no clipmaps yet.
+//! included) instead of splatting a light-view map.
+//!
+//! Clipmaps (`clipmap_levels` > 1): nested volumes of the same resolution, the coarsest over the scene,
+//! each finer one half the voxel and centred on the camera, snapped to two of its voxels (its mip 1 then
+//! lines up with the next level's voxels). A cone sample reads the finest level that holds it and is
+//! as fine as its diameter needs. A level is voxelised and lit again when it moves; a production
+//! engine would scroll it (toroidal addressing) and update only the new slabs.
 
 #[cfg(test)]
 mod tests;
@@ -55,13 +61,25 @@ const MIN_SPECULAR_TAN: f32 = 0.02;
 const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Voxel words (albedo + count, normal), read and written by voxelisation.
 const VOXEL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+/// Most clipmap levels.
+pub const MAX_CLIPMAPS: usize = 4;
+/// A cone sample uses a finer clipmap level only this many of its voxels inside its border: filtering
+/// at its mip 1 reads a voxel of 2 around the sample.
+const CLIP_MARGIN: f32 = 2.0;
 
-const VXGI_PARAMS: [ParamSpec; 17] = with_direct_params!(
+const VXGI_PARAMS: [ParamSpec; 18] = with_direct_params!(
     ParamSpec {
         name: "resolution",
         kind: ParamKind::Int { min: 16, max: 512 },
         default: "128",
         doc: "voxels along each axis of the cubic volume over the scene (a power of two)",
+    },
+    ParamSpec {
+        name: "clipmap_levels",
+        kind: ParamKind::Int { min: 1, max: MAX_CLIPMAPS as i64 },
+        default: "1",
+        doc: "nested volumes of `resolution`³: the coarsest covers the scene, each finer one halves the voxel \
+              and follows the camera (1 = one volume over the scene)",
     },
     ParamSpec {
         name: "diffuse_cones",
@@ -87,7 +105,7 @@ const VXGI_PARAMS: [ParamSpec; 17] = with_direct_params!(
         name: "max_distance",
         kind: ParamKind::Float { min: 0.01, max: 2.0 },
         default: "1",
-        doc: "how far cones go, as a fraction of the volume's edge",
+        doc: "how far cones go, as a fraction of the (coarsest) volume's edge",
     },
     ParamSpec {
         name: "bounces",
@@ -151,22 +169,27 @@ fn validate(p: &ParamValues) -> Result<(), String> {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct VxgiVolume {
-    /// Minimum corner (xyz) and voxel edge (w).
-    pub corner_voxel: [f32; 4],
+    /// Per clipmap level, finest first: minimum corner (xyz) and voxel edge (w).
+    pub clips: [[f32; 4]; MAX_CLIPMAPS],
 }
 
-/// Mirrors `VoxelizeAxis` in voxelize.wgsl.
+/// Mirrors `DispatchSlot` in volume.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct VoxelizeAxis {
+struct DispatchSlot {
     axis: u32,
-    _pad: [u32; 3],
+    clip: u32,
+    _pad: [u32; 2],
 }
 
-/// The cube of `grid`³ voxels over `bounds`: centred on them, with a voxel of margin on every side.
-pub fn place_volume(bounds: crate::scene::Aabb, grid: u32) -> VxgiVolume {
-    let (corner, voxel) = bounds.enclosing_cube(grid);
-    VxgiVolume { corner_voxel: [corner.x, corner.y, corner.z, voxel] }
+/// The `clips` nested cubes of `grid`³ voxels: the coarsest centred on `bounds` with a voxel of margin on
+/// every side, each finer one half the voxel, centred on `camera` and snapped to two of its voxels.
+pub fn place_volume(bounds: crate::scene::Aabb, camera: glam::Vec3, grid: u32, clips: usize) -> VxgiVolume {
+    let mut v = VxgiVolume::zeroed();
+    for (k, (corner, voxel)) in bounds.nested_cubes(camera, grid, clips, 2).into_iter().enumerate() {
+        v.clips[k] = [corner.x, corner.y, corner.z, voxel];
+    }
+    v
 }
 
 /// Half-angle of the diffuse cones in radians: `aperture_deg`, or (0) each cone's equal share of the
@@ -183,10 +206,11 @@ pub fn diffuse_half_angle(cones: u32, aperture_deg: f64) -> f64 {
 #[derive(Clone, Copy, Debug)]
 pub struct ShaderSettings {
     pub grid: u32,
+    pub clips: u32,
     pub diffuse_cones: u32,
     pub diffuse_tan: f32,
     pub step: f32,
-    /// In voxels.
+    /// In voxels of the coarsest level.
     pub max_distance: f32,
     pub specular_cone: bool,
     pub anisotropic: bool,
@@ -199,6 +223,7 @@ impl ShaderSettings {
         let diffuse_cones = p.int("diffuse_cones") as u32;
         ShaderSettings {
             grid,
+            clips: p.int("clipmap_levels") as u32,
             diffuse_cones,
             diffuse_tan: diffuse_half_angle(diffuse_cones, p.float("aperture")).tan() as f32,
             step: p.float("step") as f32,
@@ -209,16 +234,21 @@ impl ShaderSettings {
         }
     }
 
-    /// Levels of the radiance volume: the voxels, then each halving down to one voxel.
+    /// Mip levels of each clipmap level's radiance: the voxels, then each halving down to one voxel.
     pub fn levels(&self) -> u32 {
         self.grid.ilog2() + 1
     }
 
     pub fn defines(&self) -> Defines {
-        // The narrowest cone advances STEP voxels a step; none needs more steps than its distance.
-        let max_steps = (self.max_distance.min(3f32.sqrt() * self.grid as f32) / self.step).ceil() as u32 + 1;
+        // The narrowest cone advances STEP voxels a step; none needs more steps than its distance, in
+        // each clipmap level it crosses.
+        let per_level = (self.max_distance.min(3f32.sqrt() * self.grid as f32) / self.step).ceil() as u32;
+        let max_steps = per_level * self.clips + 1;
         Defines::new()
             .u32("GRID", self.grid)
+            .u32("CLIPS", self.clips)
+            .u32("MAX_CLIPMAPS", MAX_CLIPMAPS as u32)
+            .f32("CLIP_MARGIN", CLIP_MARGIN)
             .u32("LEVELS", self.levels())
             .u32("DIFFUSE_CONES", self.diffuse_cones)
             .f32("DIFFUSE_TAN", self.diffuse_tan)
@@ -288,7 +318,8 @@ pub struct Vxgi {
     /// (anisotropic). The isotropic mips live in the level-0 textures' own chains.
     lit: [wgpu::Texture; 2],
     directional: Option<wgpu::Texture>,
-    axes: DispatchSlots,
+    /// Per dispatch of the volume passes: (clip level, axis), slot 3 × clip + axis.
+    slots: DispatchSlots,
     /// The layout of bind group 2, for passes outside the technique (the tests' cone probes).
     #[cfg_attr(not(test), allow(dead_code))]
     layout: wgpu::BindGroupLayout,
@@ -307,7 +338,8 @@ pub struct Vxgi {
     mip_from_base: wgpu::ComputePipeline,
     mip_from_directional: wgpu::ComputePipeline,
     shade: wgpu::ComputePipeline,
-    voxels_dirty: bool,
+    /// Per clipmap level: its voxels must be rebuilt (it moved, geometry changed).
+    voxels_dirty: [bool; MAX_CLIPMAPS],
     light_dirty: bool,
 }
 
@@ -326,7 +358,9 @@ impl Vxgi {
         let direct_texture = compute::storage_texture(ctx, "vxgi direct", width, height, OUTPUT_FORMAT);
         let direct = DirectLighting::new(setup, &direct_texture, DirectOutput::Accumulate)?;
 
-        let volume = place_volume(setup.gpu_scene.bounds(), n);
+        let clips = settings.clips;
+        let volume =
+            place_volume(setup.gpu_scene.bounds(), setup.frame.view.camera.position, n, clips as usize);
         let volume_buffer = {
             use wgpu::util::DeviceExt;
             ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -335,12 +369,15 @@ impl Vxgi {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             })
         };
-        let voxels = |label| TextureBuilder::d3(label, n, n, n, VOXEL_FORMAT).storage().copy().build(ctx);
+        let voxels =
+            |label| TextureBuilder::d3(label, n, n, clips * n, VOXEL_FORMAT).storage().copy().build(ctx);
         let voxel_albedo = voxels("vxgi voxel albedo")?;
         let voxel_normal = voxels("vxgi voxel normal")?;
         let radiance_mips = if settings.anisotropic { 1 } else { settings.levels() };
+        // `size`³ per clipmap level, the levels stacked along z (stand-ins: one texel).
         let radiance = |label, size: u32| {
-            TextureBuilder::d3(label, size, size, size, RADIANCE_FORMAT)
+            let depth = if size == 1 { 1 } else { clips * size };
+            TextureBuilder::d3(label, size, size, depth, RADIANCE_FORMAT)
                 .mips(if size == 1 { 1 } else { radiance_mips })
                 .storage()
                 .sampled()
@@ -356,7 +393,7 @@ impl Vxgi {
         let lit = [radiance("vxgi radiance", n)?, second];
         let directional = if settings.anisotropic {
             Some(
-                TextureBuilder::d3("vxgi directional radiance", 3 * n, n / 2, n / 2, RADIANCE_FORMAT)
+                TextureBuilder::d3("vxgi directional radiance", 3 * n, n / 2, clips * n / 2, RADIANCE_FORMAT)
                     .mips(n.ilog2())
                     .storage()
                     .sampled()
@@ -366,8 +403,10 @@ impl Vxgi {
         } else {
             None
         };
-        let axis_values: Vec<VoxelizeAxis> = (0..3).map(|axis| VoxelizeAxis { axis, _pad: [0; 3] }).collect();
-        let axes = DispatchSlots::new(ctx, "vxgi voxelization axes", &axis_values);
+        let slot_values: Vec<DispatchSlot> = (0..clips)
+            .flat_map(|clip| (0..3).map(move |axis| DispatchSlot { axis, clip, _pad: [0; 2] }))
+            .collect();
+        let slots = DispatchSlots::new(ctx, "vxgi dispatch slots", &slot_values);
 
         let filterable = wgpu::TextureSampleType::Float { filterable: true };
         let layout = compute::layout(
@@ -383,7 +422,7 @@ impl Vxgi {
                 compute::filtering_sampler_entry(6),
                 compute::texture_entry(7, wgpu::TextureSampleType::Float { filterable: false }),
                 compute::storage_texture_entry(8, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
-                axes.entry(9),
+                slots.entry(9),
             ],
         );
         let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
@@ -413,7 +452,7 @@ impl Vxgi {
                     wgpu::BindingResource::Sampler(&sampler),
                     wgpu::BindingResource::TextureView(&direct_view),
                     wgpu::BindingResource::TextureView(&output_view),
-                    axes.resource(),
+                    slots.resource(),
                 ],
             )
         };
@@ -477,14 +516,14 @@ impl Vxgi {
             voxel_normal,
             lit,
             directional,
-            axes,
+            slots,
             layout,
             inject_group,
             bounce_group,
             shade_group,
             mip_groups,
             mip_generator: MipGenerator::new(),
-            voxels_dirty: true,
+            voxels_dirty: [true; MAX_CLIPMAPS],
             light_dirty: true,
         })
     }
@@ -493,7 +532,7 @@ impl Vxgi {
         [self.settings.grid.div_ceil(4); 3]
     }
 
-    /// Records `pipeline` over the scene, the frame and `group` (axis slot `slot`).
+    /// Records `pipeline` over the scene, the frame and `group` (dispatch slot `slot`: 3 × clip + axis).
     fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -505,18 +544,45 @@ impl Vxgi {
     ) {
         let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
         let mut pass = crate::gpu::dispatch::compute_pass(encoder, name, pipeline, &[scene, frame]);
-        pass.set_bind_group(2, group, &[self.axes.offsets().nth(slot).unwrap_or(0)]);
+        pass.set_bind_group(2, group, &[self.slots.offsets().nth(slot).unwrap_or(0)]);
         pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
     }
 
-    /// Voxelises the scene into the voxel words (pass "vxgi voxelization").
-    fn voxelize(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+    /// Voxelises the scene into the voxel words of the clipmap levels in `levels` (pass "vxgi
+    /// voxelization").
+    fn voxelize(
+        &self,
+        fc: &FrameContext,
+        profiler: &mut Profiler,
+        levels: &[usize],
+    ) -> Result<(), RenderError> {
         let n = self.settings.grid;
         profiler.pass(fc.ctx, "vxgi voxelization", |e| {
-            self.record(e, fc, ("vxgi clear", &self.clear), &self.inject_group, 0, self.volume_workgroups());
-            for axis in 0..3 {
-                let columns = [n.div_ceil(8), n.div_ceil(8), 1];
-                self.record(e, fc, ("vxgi voxelization", &self.voxelize), &self.inject_group, axis, columns);
+            for &k in levels {
+                let clear = ("vxgi clear", &self.clear);
+                self.record(e, fc, clear, &self.inject_group, 3 * k, self.volume_workgroups());
+                for axis in 0..3 {
+                    let columns = [n.div_ceil(8), n.div_ceil(8), 1];
+                    let pass = ("vxgi voxelization", &self.voxelize);
+                    self.record(e, fc, pass, &self.inject_group, 3 * k + axis, columns);
+                }
+            }
+        })?;
+        Ok(())
+    }
+
+    /// Records `pipeline` over every voxel of the clipmap levels in `levels` (pass `name`).
+    fn over_levels(
+        &self,
+        fc: &FrameContext,
+        profiler: &mut Profiler,
+        (name, pipeline): (&str, &wgpu::ComputePipeline),
+        group: &wgpu::BindGroup,
+        levels: &[usize],
+    ) -> Result<(), RenderError> {
+        profiler.pass(fc.ctx, name, |e| {
+            for &k in levels {
+                self.record(e, fc, (name, pipeline), group, 3 * k, self.volume_workgroups());
             }
         })?;
         Ok(())
@@ -540,42 +606,52 @@ impl Vxgi {
             for (k, group) in self.mip_groups[b].iter().enumerate() {
                 let pipeline = if k == 0 { &self.mip_from_base } else { &self.mip_from_directional };
                 let size = (self.settings.grid >> (k + 1)).max(1);
-                compute::dispatch(e, name, pipeline, &[group], [size.div_ceil(4); 3]);
+                let depth = size * self.settings.clips;
+                compute::dispatch(
+                    e,
+                    name,
+                    pipeline,
+                    &[group],
+                    [size.div_ceil(4), size.div_ceil(4), depth.div_ceil(4)],
+                );
             }
         })?;
         failure.map_or(Ok(()), |e| Err(e.into()))
     }
 
-    /// Brings the voxels and the radiance volumes up to date with the scene.
+    /// Brings the voxels and the radiance volumes up to date with the scene and the camera (clipmap
+    /// levels that moved).
     fn update(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        let volume = place_volume(fc.gpu_scene.bounds(), self.settings.grid);
+        let clips = self.settings.clips as usize;
+        let volume = place_volume(fc.gpu_scene.bounds(), fc.view.camera.position, self.settings.grid, clips);
         if volume != self.volume {
+            for k in 0..clips {
+                self.voxels_dirty[k] |= volume.clips[k] != self.volume.clips[k];
+            }
             self.volume = volume;
             fc.ctx.queue.write_buffer(&self.volume_buffer, 0, bytemuck::bytes_of(&volume));
-            self.voxels_dirty = true;
         }
         if self.every_frame {
-            self.voxels_dirty = true;
+            self.voxels_dirty = [true; MAX_CLIPMAPS];
         }
-        if self.voxels_dirty {
-            self.voxelize(fc, profiler)?;
-            self.light_dirty = true;
+        let dirty: Vec<usize> = (0..clips).filter(|&k| self.voxels_dirty[k]).collect();
+        if !dirty.is_empty() {
+            self.voxelize(fc, profiler, &dirty)?;
         }
-        if self.light_dirty {
-            profiler.pass(fc.ctx, "vxgi injection", |e| {
-                let pass = ("vxgi injection", &self.inject);
-                self.record(e, fc, pass, &self.inject_group, 0, self.volume_workgroups());
-            })?;
+        // New light everywhere when lights change, else in the levels voxelised again; the second
+        // bounce reads every level, so it follows any change.
+        let all: Vec<usize> = (0..clips).collect();
+        let lit = if self.light_dirty { &all } else { &dirty };
+        if !lit.is_empty() {
+            self.over_levels(fc, profiler, ("vxgi injection", &self.inject), &self.inject_group, lit)?;
             self.build_mips(fc, profiler, 0, "vxgi mips")?;
             if self.bounces > 1 {
-                profiler.pass(fc.ctx, "vxgi bounce", |e| {
-                    let pass = ("vxgi bounce", &self.bounce);
-                    self.record(e, fc, pass, &self.bounce_group, 0, self.volume_workgroups());
-                })?;
+                let pass = ("vxgi bounce", &self.bounce);
+                self.over_levels(fc, profiler, pass, &self.bounce_group, &all)?;
                 self.build_mips(fc, profiler, 1, "vxgi bounce mips")?;
             }
         }
-        self.voxels_dirty = false;
+        self.voxels_dirty = [false; MAX_CLIPMAPS];
         self.light_dirty = false;
         Ok(())
     }
@@ -600,7 +676,7 @@ impl Technique for Vxgi {
     ) -> Result<bool, RenderError> {
         match change {
             SceneChange::Lights | SceneChange::Environment => self.light_dirty = true,
-            SceneChange::Geometry => self.voxels_dirty = true,
+            SceneChange::Geometry => self.voxels_dirty = [true; MAX_CLIPMAPS],
         }
         Ok(true)
     }
@@ -612,8 +688,13 @@ impl Technique for Vxgi {
         c.insert("vxgi_voxel_bytes".into(), voxels as f64);
         c.insert("vxgi_radiance_bytes".into(), radiance as f64);
         c.insert("vxgi_directional_bytes".into(), self.directional.as_ref().map_or(0, texture_bytes) as f64);
-        c.insert("vxgi_voxel_size".into(), f64::from(self.volume.corner_voxel[3]));
+        // The finest level's voxel; with clipmaps, each level's too.
+        c.insert("vxgi_voxel_size".into(), f64::from(self.volume.clips[0][3]));
         c.insert("vxgi_levels".into(), f64::from(self.settings.levels()));
+        c.insert("vxgi_clipmap_levels".into(), f64::from(self.settings.clips));
+        for k in 1..self.settings.clips as usize {
+            c.insert(format!("vxgi_clip{k}_voxel_size"), f64::from(self.volume.clips[k][3]));
+        }
         Ok(c)
     }
 }

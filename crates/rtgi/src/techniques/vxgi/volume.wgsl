@@ -1,34 +1,64 @@
 // Voxel cone tracing (Crassin et al. 2011): the voxel grid every VXGI pass shares. Layouts mirror
 // `vxgi/mod.rs`.
 //
-// The volume is a cube of GRID³ voxels of edge `volume.corner_voxel.w` whose minimum corner is
-// `volume.corner_voxel.xyz`. Positions inside it are in voxel units ("grid units": voxel k spans
-// [k, k+1) on each axis). Voxelisation leaves two r32uint words per voxel: the running mean of the
-// diffuse albedo of the surfaces in it (rgb, unorm8) with their count (the top byte; 0 = empty), and
-// the running mean of their authored normals (snorm8 xyz).
+// The volume is CLIPS nested cubes of GRID³ voxels (clipmap levels, finest first; one cube over the
+// scene when CLIPS = 1): level k's minimum corner is `volume.clips[k].xyz` and its voxel edge
+// `volume.clips[k].w`, each level twice the voxel of the one before, the coarsest over the scene.
+// Positions inside a level are in its voxel units ("grid units": voxel c spans [c, c+1) on each axis).
+// The levels are stacked along z in every volume texture: voxel c of level k is texel c + (0, 0, k·GRID).
+// Voxelisation leaves two r32uint words per voxel: the running mean of the diffuse albedo of the surfaces
+// in it (rgb, unorm8) with their count (the top byte; 0 = empty), and the running mean of their authored
+// normals (snorm8 xyz).
 
 struct VxgiVolume {
-    corner_voxel: vec4f,
+    clips: array<vec4f, MAX_CLIPMAPS>,
+}
+
+// Per dispatch of the volume passes: the axis voxelisation's rays follow, the level a pass works on.
+struct DispatchSlot {
+    axis: u32,
+    clip: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(2) @binding(0) var<uniform> volume: VxgiVolume;
+@group(2) @binding(9) var<uniform> dispatch_slot: DispatchSlot;
 @group(2) @binding(1) var voxel_albedo: texture_storage_3d<r32uint, read_write>;
 @group(2) @binding(2) var voxel_normal: texture_storage_3d<r32uint, read_write>;
 
-fn voxel_size() -> f32 {
-    return volume.corner_voxel.w;
+fn voxel_size(k: u32) -> f32 {
+    return volume.clips[k].w;
 }
 
-fn grid_position(p: vec3f) -> vec3f {
-    return (p - volume.corner_voxel.xyz) / voxel_size();
+fn grid_position(k: u32, p: vec3f) -> vec3f {
+    return (p - volume.clips[k].xyz) / voxel_size(k);
 }
 
-fn world_position(g: vec3f) -> vec3f {
-    return volume.corner_voxel.xyz + g * voxel_size();
+fn world_position(k: u32, g: vec3f) -> vec3f {
+    return volume.clips[k].xyz + g * voxel_size(k);
 }
 
 fn inside_grid(g: vec3f) -> bool {
     return all(g >= vec3f(0.0)) && all(g < vec3f(f32(GRID)));
+}
+
+// The texel of voxel c of level k in the stacked textures.
+fn clip_texel(k: u32, c: vec3u) -> vec3u {
+    return c + vec3u(0u, 0u, k * GRID);
+}
+
+// The finest level holding p at least `margin` of its voxels inside its border; CLIPS when p lies
+// outside even the coarsest.
+fn clip_at(p: vec3f, margin: f32) -> u32 {
+    for (var k = 0u; k + 1u < CLIPS; k++) {
+        let g = grid_position(k, p);
+        if all(g >= vec3f(margin)) && all(g <= vec3f(f32(GRID) - margin)) {
+            return k;
+        }
+    }
+    let g = grid_position(CLIPS - 1u, p);
+    return select(CLIPS, CLIPS - 1u, all(g >= vec3f(0.0)) && all(g <= vec3f(f32(GRID))));
 }
 
 struct Voxel {

@@ -4,20 +4,12 @@
 // dominant axis at least once per voxel it crosses, as a rasteriser projecting it on that axis would
 // (the paper's voxelisation, without conservative rasterisation: surfaces thinner than a voxel in all
 // three projections can be missed). The axes run in three dispatches and each thread owns its column,
-// so the running means are updated without atomics and in the same order on every run.
+// so the running means are updated without atomics and in the same order on every run. Each clipmap
+// level is voxelised by its own dispatches (`dispatch_slot.clip`).
 
 #import common/scene.wgsl
 #import common/brdf.wgsl
 
-// Per dispatch: which axis the rays follow.
-struct VoxelizeAxis {
-    axis: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
-@group(2) @binding(9) var<uniform> voxelize_axis: VoxelizeAxis;
 
 // A surface on a voxel face belongs to the voxel behind it (against its authored normal): the hit
 // point moves this far (in voxels) against the normal before it picks its voxel.
@@ -37,8 +29,9 @@ fn clear_voxels(@builtin(global_invocation_id) id: vec3u) {
     if any(id >= vec3u(GRID)) {
         return;
     }
-    textureStore(voxel_albedo, id, vec4u(0u));
-    textureStore(voxel_normal, id, vec4u(0u));
+    let t = clip_texel(dispatch_slot.clip, id);
+    textureStore(voxel_albedo, t, vec4u(0u));
+    textureStore(voxel_normal, t, vec4u(0u));
 }
 
 @compute @workgroup_size(8, 8)
@@ -46,16 +39,17 @@ fn voxelize(@builtin(global_invocation_id) id: vec3u) {
     if any(id.xy >= vec2u(GRID)) {
         return;
     }
-    let a = voxelize_axis.axis;
+    let a = dispatch_slot.axis;
+    let level = dispatch_slot.clip;
     var g = vec3f(0.0);
     g[(a + 1u) % 3u] = f32(id.x) + 0.5;
     g[(a + 2u) % 3u] = f32(id.y) + 0.5;
     var dir = vec3f(0.0);
     dir[a] = 1.0;
-    let ray = Ray(world_position(g), dir);
-    let column = f32(GRID) * voxel_size();
+    let ray = Ray(world_position(level, g), dir);
+    let column = f32(GRID) * voxel_size(level);
     // Hits closer than this to the previous one are the same surface (a shared edge, a coplanar twin).
-    let separation = FACE_TIE * voxel_size();
+    let separation = FACE_TIE * voxel_size(level);
     var tmin = 0.0;
     // A column holds at most GRID voxels; more hits than twice that are surfaces sharing voxels.
     for (var k = 0u; k < 2u * GRID; k++) {
@@ -67,11 +61,11 @@ fn voxelize(@builtin(global_invocation_id) id: vec3u) {
         let s = surface_at(hit.triangle, hit.u, hit.v, dir);
         // surface_at faces the normals towards the ray; the voxel keeps the authored side.
         let authored = select(1.0, -1.0, hits_back_face(hit.triangle, hit.u, hit.v, dir));
-        let tie = grid_position(s.position) - s.geometric_normal * (authored * FACE_TIE);
+        let tie = grid_position(level, s.position) - s.geometric_normal * (authored * FACE_TIE);
         let c = floor(tie);
         if inside_grid(c) {
             let albedo = brdf_lobe_weights(s.material, 1.0).diffuse;
-            add_surface(vec3u(c), albedo, s.normal * authored);
+            add_surface(clip_texel(level, vec3u(c)), albedo, s.normal * authored);
         }
     }
 }
