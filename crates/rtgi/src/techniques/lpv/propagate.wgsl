@@ -44,6 +44,24 @@ fn geometry_at(cascade: u32, g: vec3f, slot: u32) -> vec4f {
     return sum;
 }
 
+// Light a source cell sends towards the neighbour along `dir` through that neighbour's face `face`:
+// the direction from the source's centre to the face's centre, and the face's solid angle from there.
+fn towards_face(dir: vec3i, face: vec3i) -> vec3f {
+    return normalize(vec3f(dir) + 0.5 * vec3f(face));
+}
+
+fn face_solid_angle(dir: vec3i, face: vec3i) -> f32 {
+    return select(SIDE_SOLID_ANGLE, FRONT_SOLID_ANGLE, all(face == dir));
+}
+
+// Re-emits `flux` (per channel) as a cosine lobe about `normal`: intensity Φ/π ⟨normal, ω⟩⁺.
+fn add_lobe(sum: ptr<function, CellLight>, normal: vec3f, flux: vec3f) {
+    let lobe = sh4_cosine_lobe(normal) * INV_PI;
+    (*sum).r += lobe * flux.r;
+    (*sum).g += lobe * flux.g;
+    (*sum).b += lobe * flux.b;
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let i = indirect_linear_index(gid, groups, 64u);
@@ -52,6 +70,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
     }
     let cascade = i / cells_per_cascade();
     let cell = vec3i(cell_of(cascade, i));
+    let occluded = GEOMETRY_VOLUME && propagation.index > 0u;
     var gathered = CellLight(vec4f(0.0), vec4f(0.0), vec4f(0.0));
     for (var a = 0u; a < 6u; a++) {
         // Light travelling along `dir` from the neighbour behind this cell.
@@ -61,7 +80,6 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
             continue;
         }
         let light = load_light(cell_index(cascade, vec3u(neighbour)));
-        let occluded = GEOMETRY_VOLUME && propagation.index > 0u;
         var blocking = vec4f(0.0);
         if occluded {
             blocking = geometry_at(cascade, vec3f(cell) + 0.5 - 0.5 * vec3f(dir), 0u);
@@ -71,19 +89,16 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
             if all(face == -dir) {
                 continue;
             }
-            let towards = normalize(vec3f(dir) + 0.5 * vec3f(face));
-            let solid_angle = select(SIDE_SOLID_ANGLE, FRONT_SOLID_ANGLE, all(face == dir));
-            var flux = max(eval_cell(light, towards), vec3f(0.0)) * solid_angle;
+            let towards = towards_face(dir, face);
+            var flux = max(eval_cell(light, towards), vec3f(0.0)) * face_solid_angle(dir, face);
             if occluded {
                 flux *= 1.0 - saturate(dot(blocking, sh4_basis(towards)));
             }
-            let lobe = sh4_cosine_lobe(vec3f(face)) * INV_PI;
-            gathered.r += lobe * flux.r;
-            gathered.g += lobe * flux.g;
-            gathered.b += lobe * flux.b;
+            add_lobe(&gathered, vec3f(face), flux);
         }
     }
-    if MULTIPLE_BOUNCES && GEOMETRY_VOLUME && propagation.index > 0u {
+    if MULTIPLE_BOUNCES && occluded {
+        // This cell's own light towards each neighbour, the part the face between them blocks.
         let own = load_light(i);
         for (var a = 0u; a < 6u; a++) {
             let dir = AXES[a];
@@ -99,17 +114,12 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
                 if all(face == -dir) {
                     continue;
                 }
-                let towards = normalize(vec3f(dir) + 0.5 * vec3f(face));
-                let solid_angle = select(SIDE_SOLID_ANGLE, FRONT_SOLID_ANGLE, all(face == dir));
-                blocked += max(eval_cell(own, towards), vec3f(0.0)) * solid_angle
+                let towards = towards_face(dir, face);
+                blocked += max(eval_cell(own, towards), vec3f(0.0)) * face_solid_angle(dir, face)
                     * saturate(dot(blocking, sh4_basis(towards)));
             }
             let albedo = geometry_at(cascade, face_centre, 1u);
-            let reflected = select(vec3f(0.0), albedo.rgb / albedo.w, albedo.w > 0.0) * blocked;
-            let lobe = sh4_cosine_lobe(-vec3f(dir)) * INV_PI;
-            gathered.r += lobe * reflected.r;
-            gathered.g += lobe * reflected.g;
-            gathered.b += lobe * reflected.b;
+            add_lobe(&gathered, -vec3f(dir), select(vec3f(0.0), albedo.rgb / albedo.w, albedo.w > 0.0) * blocked);
         }
     }
     destination[3u * i] = gathered.r;
