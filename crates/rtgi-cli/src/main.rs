@@ -91,6 +91,22 @@ enum Command {
         #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
         exposure: f32,
     },
+    /// Lay HDR images (.exr, .hdr, .png) side by side in one labelled PNG, each tone-mapped as `render`
+    /// does for .png outputs: e.g. a technique next to the path-traced reference.
+    Montage {
+        /// The images, left to right.
+        #[arg(required = true)]
+        images: Vec<PathBuf>,
+        /// A label above each image, in order: none, or one per image.
+        #[arg(long = "label", value_name = "TEXT")]
+        labels: Vec<String>,
+        /// Output .png.
+        #[arg(long, value_name = "FILE.png")]
+        out: PathBuf,
+        /// Exposure in stops applied before the tone curve.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+    },
     /// Write a built-in scene as binary glTF (.glb).
     ExportScene {
         /// Built-in scene, optionally with parameters: NAME or NAME:key=value,...
@@ -318,6 +334,22 @@ fn tonemap(input: &Path, output: &Path, exposure: f32) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn montage(images: &[PathBuf], labels: &[String], out: &Path, exposure: f32) -> anyhow::Result<()> {
+    if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        bail!("{}: the output must be a .png file", out.display());
+    }
+    if !labels.is_empty() && labels.len() != images.len() {
+        bail!("{} labels for {} images: give one --label per image, or none", labels.len(), images.len());
+    }
+    let read = images.iter().map(rtgi::image::HdrImage::read).collect::<Result<Vec<_>, _>>()?;
+    let panels: Vec<(&rtgi::image::HdrImage, &str)> =
+        read.iter().enumerate().map(|(k, image)| (image, labels.get(k).map_or("", String::as_str))).collect();
+    let m = rtgi::montage::montage(&panels, &rtgi::image::ToneMap { exposure_ev: exposure });
+    create_parent(out)?;
+    rtgi::image::write_rgb8_png(out, m.width, m.height, &m.rgb)?;
+    Ok(())
+}
+
 fn main() -> ExitCode {
     // Mesa's implicit VK_LAYER_MESA_device_select probes Wayland and X11 to pick a default device, which
     // prints "XDG_RUNTIME_DIR is invalid" on headless machines. rtgi ranks adapters itself (discrete
@@ -337,6 +369,7 @@ fn main() -> ExitCode {
             reference(&scene, &size, spp, &set, out.as_deref())
         }
         Command::Tonemap { input, output, exposure } => tonemap(&input, &output, exposure),
+        Command::Montage { images, labels, out, exposure } => montage(&images, &labels, &out, exposure),
         Command::Compare { reference, test, temporal, json, error_map, region } => {
             let images = ImageOptions { error_map: error_map.as_deref(), region: region.as_deref() };
             compare_command(&reference, test.as_deref(), temporal, json, &images)

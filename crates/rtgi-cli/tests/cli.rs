@@ -344,6 +344,27 @@ fn tonemap_writes_a_png_and_refuses_other_outputs() {
 }
 
 #[test]
+fn montage_lays_out_labelled_images_and_refuses_bad_arguments() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    write_exr(dir.path(), "a.exr", 2, 1, vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+    write_exr(dir.path(), "b.exr", 3, 2, vec![0.5; 18]);
+    let out =
+        rtgi_in(dir.path(), &["montage", "a.exr", "b.exr", "--label", "A", "--label", "B", "--out", "m.png"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let png = rtgi::image::HdrImage::read(dir.path().join("m.png")).expect("png");
+    // Gaps of 8 around and between; a label strip of one 9-pixel line and a gap above the images.
+    let gap = rtgi::montage::GAP;
+    assert_eq!((png.width, png.height), (2 + 3 + 3 * gap, 9 + gap + 2 + 2 * gap));
+    let err =
+        expect_error(&rtgi_in(dir.path(), &["montage", "a.exr", "b.exr", "--label", "A", "--out", "m.png"]));
+    assert!(err.contains("1 labels for 2 images"), "{err}");
+    let err = expect_error(&rtgi_in(dir.path(), &["montage", "a.exr", "--out", "m.exr"]));
+    assert!(err.contains("m.exr") && err.contains(".png"), "{err}");
+    let err = expect_error(&rtgi_in(dir.path(), &["montage", "a.exr", "missing.exr", "--out", "m.png"]));
+    assert!(err.contains("missing.exr"), "{err}");
+}
+
+#[test]
 fn compare_refuses_images_with_nan_and_counts_them() {
     let dir = tempfile::tempdir().expect("temp dir");
     write_exr(dir.path(), "r.exr", 2, 1, vec![0.5; 6]);

@@ -9,6 +9,7 @@ pub mod frame;
 pub mod gpu;
 pub mod image;
 pub mod metrics;
+pub mod montage;
 pub mod params;
 pub mod reference;
 pub mod render;
