@@ -183,11 +183,12 @@ def main():
     for scene in dict.fromkeys(c["scene"] for c in cells):
         sc = [c for c in cells if c["scene"] == scene]
         lines += [f"## {scene} ({width}×{height})", "",
-                  "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time |", "|---|---|---|---|---|"]
+                  "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time | on the front |",
+                  "|---|---|---|---|---|---|"]
         for c in sc:
             at = m.path_flip_text(sc, c)
             lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {c['error']['flip']:.4f} | "
-                         f"{c['error']['rel_mse']:.5f} | {at} |")
+                         f"{c['error']['rel_mse']:.5f} | {at} | {'yes' if m.on_front(sc, c) else 'no'} |")
         lines.append("")
         ddgi = next((c for c in sc if c["series"] == "ddgi" and c["sweep"].get("rays") == "64"), None)
         ddgi = ddgi or next((c for c in sc if c["series"] == "ddgi"), None)
