@@ -7,10 +7,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The layer of each top-level module; a module may import its own layer and the ones below.
-const LAYERS: [(&str, u32); 18] = [
+const LAYERS: [(&str, u32); 19] = [
     ("error", 0),
     ("scene", 0),
     ("image", 0),
+    ("montage", 0),
     ("params", 0),
     ("sh", 0),
     ("sequences", 0),
