@@ -133,13 +133,18 @@ def main():
             lines.append(f"| {c['scene']}: {m.label(c)} | {p.get('vxgi voxelization', 0):.2f} | "
                          f"{p.get('vxgi injection', 0):.2f} | {p.get('vxgi mips', 0):.2f} | "
                          f"{p.get('vxgi cone tracing', 0):.2f} |")
+        # Memory does not depend on the scene: one row per setting, from the first scene that has it (the
+        # clipmap cells run on atrium only). Voxel edge: the finest level's.
         lines += ["", "| cell | voxel edge | voxels MiB | radiance MiB | directional MiB |", "|---|---|---|---|---|"]
+        seen = set()
         for c in vx:
-            if c["scene"] != cells[0]["scene"]:
+            if m.label(c) in seen:
                 continue
+            seen.add(m.label(c))
             k = c["counters"]
-            lines.append(f"| {m.label(c)} | {k['vxgi_voxel_size']:.4f} | {k['vxgi_voxel_bytes'] / 2**20:.1f} | "
-                         f"{k['vxgi_radiance_bytes'] / 2**20:.1f} | {k['vxgi_directional_bytes'] / 2**20:.1f} |")
+            lines.append(f"| {m.label(c)} ({c['scene']}) | {k['vxgi_voxel_size']:.4f} | "
+                         f"{k['vxgi_voxel_bytes'] / 2**20:.1f} | {k['vxgi_radiance_bytes'] / 2**20:.1f} | "
+                         f"{k['vxgi_directional_bytes'] / 2**20:.1f} |")
         lines.append("")
 
     lines += m.leak_table(rtgi, OUT, cells, size, spp)
