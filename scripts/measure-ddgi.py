@@ -13,7 +13,6 @@ Options: --suite FILE (default benches/ddgi.toml), --size WxH (run the suite at 
 own), --doc NAME (write docs/measurements/NAME.md and NAME-bench/; default ddgi), --no-lag (skip the lag
 runs), --allow-dirty. Environment and shared helpers: scripts/measure_common.py.
 """
-import argparse
 import json
 import math
 import shutil
@@ -135,19 +134,15 @@ def paper_grid_section(cells):
 
 
 def main():
-    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--suite", default="benches/ddgi.toml")
-    args.add_argument("--size", help="WxH: run the suite at this size instead of its own")
-    args.add_argument("--doc", default="ddgi")
-    args.add_argument("--no-lag", action="store_true")
-    args.add_argument("--lag-only", action="store_true",
-                      help="only the lag runs, printed to docs/measurements/NAME.md")
-    args.add_argument("--allow-dirty", action="store_true")
-    args = args.parse_args()
-    m.refuse_dirty_tree(args.allow_dirty, "measure-ddgi.py")
-    rtgi = m.rtgi_binary()
+    def lag_options(parser):
+        parser.add_argument("--no-lag", action="store_true")
+        parser.add_argument("--lag-only", action="store_true",
+                            help="only the lag runs, printed to docs/measurements/NAME.md")
+
+    args, rtgi = m.suite_arguments("measure-ddgi.py", "benches/ddgi.toml", "ddgi", __doc__.splitlines()[0],
+                                   lag_options)
     if args.lag_only:
-        commit = m.run(["git", "describe", "--always", "--dirty", "--abbrev=12"]).strip()
+        commit = m.describe()
         OUT.mkdir(parents=True, exist_ok=True)
         m.run([rtgi, "render", "--technique", "direct", "--size", "8x8", "--out", OUT / "adapter.png",
                "--stats", OUT / "adapter.json"])
@@ -163,15 +158,9 @@ def main():
         rtgi, OUT, DOC, args.suite, args.size, args.doc)
     width, height = (int(v) for v in size.split("x"))
     ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
-    command = "python3 scripts/measure-ddgi.py" + "".join(
-        f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
     lines = [
         f"# DDGI (issue 12): measurements at {width}×{height}", "",
-        f"Printed by `{command}` from `rtgi bench {args.suite}`"
-        + (f" at {size}" if args.size else "") + f" at commit `{results['rtgi']['commit']}` on "
-        f"{m.adapter_text(adapter)}" + (", 2 CPU cores" if cpu else "") + ". The bench's own report (Pareto "
-        f"plots, every cell with thumbnails and error maps) is in [`{args.doc}-bench/`]({args.doc}-bench/report.md).",
-        "",
+        m.printed_by("measure-ddgi.py", args, size, results, adapter, cpu), "",
         f"Each cell: a fresh renderer, `warmup` frames (100 for DDGI: its probes converge; a camera cut does not "
         f"clear them), then {suite.get('frames', 8)} timed frames back to back, then "
         f"{suite.get('error_frames', 4)} compared with the path-traced full-GI reference (spp: {ref_spp}), each "

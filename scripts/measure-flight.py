@@ -71,9 +71,7 @@ def main():
         sys.exit("--frames: at least 3 (stability needs consecutive pairs)")
     m.refuse_dirty_tree(args.allow_dirty, "measure-flight.py")
     rtgi = m.rtgi_binary()
-    commit = m.run(["git", "describe", "--always", "--dirty", "--abbrev=12"]).strip() \
-        if (m.ROOT / ".git").exists() else "unknown"
-    commit = m.os.environ.get("RTGI_COMMIT", commit)
+    commit = m.describe()
     start_load = m.load_average()
 
     marker = OUT / "reference-run.json"

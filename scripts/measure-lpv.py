@@ -11,7 +11,6 @@ lights or geometry move) against rsm's gather, their growth with cells × iterat
 memory, and the light on two-rooms' dark floor (the leak). Options: --suite FILE, --size WxH, --doc NAME
 (default lpv-lavapipe-256), --allow-dirty. Shared helpers: scripts/measure_common.py.
 """
-import argparse
 import sys
 
 sys.dont_write_bytecode = True
@@ -19,36 +18,16 @@ import measure_common as m  # noqa: E402
 
 OUT = m.scratch("lpv")
 DOC = m.ROOT / "docs/measurements"
-LPV_PASSES = ("lpv flux scale", "lpv injection", "lpv geometry injection", "lpv resolve", "lpv propagation",
-              "lpv lookup")
-RSM_PASSES = ("rsm gather", "upsample", "full-resolution fixup", "composite")
-
-
-def gi_ms(cell):
-    names = LPV_PASSES if cell["technique"] == "lpv" else RSM_PASSES
-    return sum(p["ms_per_frame"] for p in cell["passes"] if p["name"] in names)
-
-
 def main():
-    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--suite", default="benches/lpv.toml")
-    args.add_argument("--size", help="WxH: run the suite at this size instead of its own")
-    args.add_argument("--doc", default="lpv-lavapipe-256")
-    args.add_argument("--allow-dirty", action="store_true")
-    args = args.parse_args()
-    m.refuse_dirty_tree(args.allow_dirty, "measure-lpv.py")
-    rtgi = m.rtgi_binary()
+    args, rtgi = m.suite_arguments("measure-lpv.py", "benches/lpv.toml", "lpv-lavapipe-256",
+                                   __doc__.splitlines()[0])
     suite, size, results, cells, adapter, cpu, spp = m.run_suite_into_doc(
         rtgi, OUT, DOC, args.suite, args.size, args.doc)
     width, height = (int(v) for v in size.split("x"))
     ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
-    command = "python3 scripts/measure-lpv.py" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
     lines = [
         f"# LPV (issue 11): measurements at {width}×{height}", "",
-        f"Printed by `{command}` from `rtgi bench {args.suite}`" + (f" at {size}" if args.size else "")
-        + f" at commit `{results['rtgi']['commit']}` on {m.adapter_text(adapter)}"
-        + (", 2 CPU cores" if cpu else "") + f". The bench's own report (Pareto plots, every cell with "
-        f"thumbnails and error maps) is in [`{args.doc}-bench/`]({args.doc}-bench/report.md).", "",
+        m.printed_by("measure-lpv.py", args, size, results, adapter, cpu), "",
         f"Each cell: a fresh renderer, {suite.get('frames', 8)} timed frames back to back, then "
         f"{suite.get('error_frames', 4)} compared with the path-traced full-GI reference (spp: {ref_spp}), "
         "each after a cut (docs/bench.md). ms/frame: the whole frame's GPU time (G-buffer included); GI ms: "
@@ -57,23 +36,8 @@ def main():
         "LPV is one bounce of the analytic lights (as rsm); the reference has every bounce"
         + (". On lavapipe: compare techniques with each other, not with GPU figures." if cpu else "."), "",
     ]
-    for scene in dict.fromkeys(c["scene"] for c in cells):
-        sc = [c for c in cells if c["scene"] == scene]
-        rsm = next((c for c in sc if c["technique"] == "rsm"), None)
-        lines += [f"## {scene} ({width}×{height})", "",
-                  "| cell | ms/frame | GI ms | GI ms / rsm's | FLIP | relMSE | path's FLIP at this time | on the "
-                  "front |", "|---|---|---|---|---|---|---|---|"]
-        for c in sc:
-            at = m.path_flip_text(sc, c)
-            gi = f"{gi_ms(c):.2f}" if c["technique"] in ("lpv", "rsm") else "–"
-            ratio = f"{gi_ms(c) / gi_ms(rsm):.2f}" if rsm and c["technique"] == "lpv" and gi_ms(rsm) > 0 else "–"
-            lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {gi} | {ratio} | {c['error']['flip']:.4f} | "
-                         f"{c['error']['rel_mse']:.5f} | {at} | {'yes' if m.on_front(sc, c) else 'no'} |")
-        lines.append("")
-        default = next((c for c in sc if c["series"] == "lpv" and c["sweep"].get("iterations") == "8"), None)
-        if default:
-            split = ", ".join(f"{p['name']} {p['ms_per_frame']:.2f}" for p in default["passes"])
-            lines += [f"{m.label(default)} per pass, ms/frame: {split}.", ""]
+    lines += m.gi_tables(cells, width, height, ("lpv",),
+                         lambda c: c["series"] == "lpv" and c["sweep"].get("iterations") == "8")
 
     scale = [c for c in cells if c["technique"] == "lpv" and c["scene"] == cells[0]["scene"]
              and c["settings"].get("geometry_volume") != "false"]
@@ -87,7 +51,7 @@ def main():
         for c in scale:
             k = c["counters"]
             passes = {p["name"]: p["ms_per_frame"] for p in c["passes"]}
-            inject = sum(passes.get(n, 0.0) for n in LPV_PASSES[:4])
+            inject = sum(passes.get(n, 0.0) for n in m.GI_PASSES["lpv"][:4])
             prop = passes.get("lpv propagation", 0.0)
             steps = k["lpv_iterations"]
             per = f"{prop * 1e6 / (k['lpv_cells'] * steps):.2f}" if steps else "–"

@@ -9,9 +9,9 @@ report to docs/measurements/NAME-bench/, and adds what the bench does not comput
 frame against rsm's gather and lpv's volumes, what a rebuild costs (voxelisation, injection, mips, the
 second bounce: once while nothing moves, every frame with update=every-frame), the volumes' memory,
 the light on two-rooms' dark floor (the leak), and voxelisation time against atrium's triangle count
-(detail 1-5). Options: --suite FILE, --size WxH, --doc NAME (default vxgi-lavapipe-256), --allow-dirty. Shared helpers: scripts/measure_common.py.
+(detail 1-5). Options: --suite FILE, --size WxH, --doc NAME (default vxgi-lavapipe-256), --allow-dirty.
+Shared helpers: scripts/measure_common.py.
 """
-import argparse
 import json
 import math
 import sys
@@ -21,20 +21,6 @@ import measure_common as m  # noqa: E402
 
 OUT = m.scratch("vxgi")
 DOC = m.ROOT / "docs/measurements"
-REBUILD = ("vxgi voxelization", "vxgi injection", "vxgi mips", "vxgi bounce", "vxgi bounce mips")
-GI_PASSES = {
-    "vxgi": REBUILD + ("vxgi cone tracing",),
-    "lpv": ("lpv flux scale", "lpv injection", "lpv geometry injection", "lpv resolve", "lpv propagation",
-            "lpv lookup"),
-    "rsm": ("rsm gather", "upsample", "full-resolution fixup", "composite"),
-}
-
-
-def gi_ms(cell):
-    names = GI_PASSES.get(cell["technique"], ())
-    return sum(p["ms_per_frame"] for p in cell["passes"] if p["name"] in names)
-
-
 def passes(cell):
     return {p["name"]: p["ms_per_frame"] for p in cell["passes"]}
 
@@ -68,25 +54,15 @@ def detail_section(rtgi):
 
 
 def main():
-    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--suite", default="benches/vxgi.toml")
-    args.add_argument("--size", help="WxH: run the suite at this size instead of its own")
-    args.add_argument("--doc", default="vxgi-lavapipe-256")
-    args.add_argument("--allow-dirty", action="store_true")
-    args = args.parse_args()
-    m.refuse_dirty_tree(args.allow_dirty, "measure-vxgi.py")
-    rtgi = m.rtgi_binary()
+    args, rtgi = m.suite_arguments("measure-vxgi.py", "benches/vxgi.toml", "vxgi-lavapipe-256",
+                                   __doc__.splitlines()[0])
     suite, size, results, cells, adapter, cpu, spp = m.run_suite_into_doc(
         rtgi, OUT, DOC, args.suite, args.size, args.doc)
     width, height = (int(v) for v in size.split("x"))
     ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
-    command = "python3 scripts/measure-vxgi.py" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
     lines = [
         f"# VXGI (issue 11): measurements at {width}×{height}", "",
-        f"Printed by `{command}` from `rtgi bench {args.suite}`" + (f" at {size}" if args.size else "")
-        + f" at commit `{results['rtgi']['commit']}` on {m.adapter_text(adapter)}"
-        + (", 2 CPU cores" if cpu else "") + f". The bench's own report (Pareto plots, every cell with "
-        f"thumbnails and error maps) is in [`{args.doc}-bench/`]({args.doc}-bench/report.md).", "",
+        m.printed_by("measure-vxgi.py", args, size, results, adapter, cpu), "",
         f"Each cell: a fresh renderer, warmed up, {suite.get('frames', 8)} timed frames back to back, then "
         f"{suite.get('error_frames', 4)} compared with the path-traced full-GI reference (spp: {ref_spp}), "
         "each after a camera cut (docs/bench.md). ms/frame: the whole frame's GPU time (G-buffer "
@@ -99,24 +75,8 @@ def main():
         "has every bounce" + (". On lavapipe: compare techniques with each other, not with GPU figures."
                               if cpu else "."), "",
     ]
-    for scene in dict.fromkeys(c["scene"] for c in cells):
-        sc = [c for c in cells if c["scene"] == scene]
-        rsm = next((c for c in sc if c["technique"] == "rsm"), None)
-        lines += [f"## {scene} ({width}×{height})", "",
-                  "| cell | ms/frame | GI ms | GI ms / rsm's | FLIP | relMSE | path's FLIP at this time | on the "
-                  "front |", "|---|---|---|---|---|---|---|---|"]
-        for c in sc:
-            at = m.path_flip_text(sc, c)
-            gi = f"{gi_ms(c):.2f}" if c["technique"] in GI_PASSES else "–"
-            ratio = (f"{gi_ms(c) / gi_ms(rsm):.2f}" if rsm and c["technique"] in ("vxgi", "lpv")
-                     and gi_ms(rsm) > 0 else "–")
-            lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {gi} | {ratio} | {c['error']['flip']:.4f} | "
-                         f"{c['error']['rel_mse']:.5f} | {at} | {'yes' if m.on_front(sc, c) else 'no'} |")
-        lines.append("")
-        default = next((c for c in sc if c["series"] == "vxgi" and c["sweep"].get("resolution") == "128"), None)
-        if default:
-            split = ", ".join(f"{p['name']} {p['ms_per_frame']:.2f}" for p in default["passes"])
-            lines += [f"{m.label(default)} per pass, ms/frame: {split}.", ""]
+    lines += m.gi_tables(cells, width, height, ("vxgi", "lpv"),
+                         lambda c: c["series"] == "vxgi" and c["sweep"].get("resolution") == "128")
 
     dynamic = [c for c in cells if c["technique"] == "vxgi" and c["settings"].get("update") == "every-frame"]
     vx = [c for c in cells if c["technique"] == "vxgi"]

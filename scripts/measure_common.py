@@ -8,6 +8,7 @@ $CARGO_TARGET_DIR or target/), SCRATCH (where the bench runs write, default targ
 NODEVICE_SELECT (set to 1 unless given). References come from the reference cache ($RTGI_CACHE_DIR or the
 default cache; see the README), rendered once when missing.
 """
+import argparse
 import json
 import tomllib
 import re
@@ -54,6 +55,43 @@ def refuse_dirty_tree(allow, script):
                  f"commit them or pass --allow-dirty:\n{dirty}")
     if dirty:
         log(script, "warning: uncommitted changes; the document will name the commit '-dirty'")
+
+
+def describe():
+    """The commit the figures come from: $RTGI_COMMIT (a copy of the tree without its history names the
+    commit it was copied from), else `git describe` of this checkout (`-dirty` with uncommitted changes),
+    as `rtgi bench` names it in results.json."""
+    if os.environ.get("RTGI_COMMIT", "").strip():
+        return os.environ["RTGI_COMMIT"].strip()
+    if not (ROOT / ".git").exists() or shutil.which("git") is None:
+        return "unknown"
+    return run(["git", "describe", "--always", "--dirty", "--abbrev=12"]).strip()
+
+
+def suite_arguments(script, suite, doc, description, extra=None):
+    """The command line of the scripts that print a document from a bench suite: --suite FILE, --size WxH,
+    --doc NAME, --allow-dirty, and what `extra(parser)` adds. Refuses a dirty tree unless allowed and
+    builds the binary: returns (args, rtgi)."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--suite", default=suite)
+    parser.add_argument("--size", help="WxH: run the suite at this size instead of its own")
+    parser.add_argument("--doc", default=doc)
+    parser.add_argument("--allow-dirty", action="store_true")
+    if extra:
+        extra(parser)
+    args = parser.parse_args()
+    refuse_dirty_tree(args.allow_dirty, script)
+    return args, rtgi_binary()
+
+
+def printed_by(script, args, size, results, adapter, cpu):
+    """A document's first sentences: the command that printed it, the suite, commit and adapter, and
+    where the bench's own report lies."""
+    command = f"python3 scripts/{script}" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+    return (f"Printed by `{command}` from `rtgi bench {args.suite}`" + (f" at {size}" if args.size else "")
+            + f" at commit `{results['rtgi']['commit']}` on {adapter_text(adapter)}"
+            + (", 2 CPU cores" if cpu else "") + ". The bench's own report (Pareto plots, every cell with "
+            f"thumbnails and error maps) is in [`{args.doc}-bench/`]({args.doc}-bench/report.md).")
 
 
 def rtgi_binary():
@@ -254,6 +292,48 @@ def path_flip_at(cells, ms):
             w = (math.log(ms) - math.log(t0)) / (math.log(t1) - math.log(t0))
             return f0 + w * (f1 - f0)
     return None
+
+
+# The passes of each technique's indirect light: without the G-buffer, the shadow maps, the RSM (rendered
+# only when lights or geometry move) and the direct light. The "GI ms" of the volume-GI documents.
+GI_PASSES = {
+    "vxgi": ("vxgi voxelization", "vxgi injection", "vxgi mips", "vxgi bounce", "vxgi bounce mips",
+             "vxgi cone tracing"),
+    "lpv": ("lpv flux scale", "lpv injection", "lpv geometry injection", "lpv resolve", "lpv propagation",
+            "lpv lookup"),
+    "rsm": ("rsm gather", "upsample", "full-resolution fixup", "composite"),
+}
+
+
+def gi_ms(cell):
+    names = GI_PASSES.get(cell["technique"], ())
+    return sum(p["ms_per_frame"] for p in cell["passes"] if p["name"] in names)
+
+
+def gi_tables(cells, width, height, compared, default):
+    """Per scene: every cell's frame time, GI time (techniques of GI_PASSES), GI time over rsm's (the
+    techniques in `compared`), FLIP, relMSE, path's FLIP at its time and whether it is on the scene's
+    front; then the per-pass split of the cell `default(cell)` picks."""
+    lines = []
+    for scene in dict.fromkeys(c["scene"] for c in cells):
+        sc = [c for c in cells if c["scene"] == scene]
+        rsm = next((c for c in sc if c["technique"] == "rsm"), None)
+        lines += [f"## {scene} ({width}×{height})", "",
+                  "| cell | ms/frame | GI ms | GI ms / rsm's | FLIP | relMSE | path's FLIP at this time | on the "
+                  "front |", "|---|---|---|---|---|---|---|---|"]
+        for c in sc:
+            gi = f"{gi_ms(c):.2f}" if c["technique"] in GI_PASSES else "–"
+            ratio = (f"{gi_ms(c) / gi_ms(rsm):.2f}" if rsm and c["technique"] in compared and gi_ms(rsm) > 0
+                     else "–")
+            lines.append(f"| {label(c)} | {c['frame_ms']:.1f} | {gi} | {ratio} | {c['error']['flip']:.4f} | "
+                         f"{c['error']['rel_mse']:.5f} | {path_flip_text(sc, c)} | "
+                         f"{'yes' if on_front(sc, c) else 'no'} |")
+        lines.append("")
+        chosen = next((c for c in sc if default(c)), None)
+        if chosen:
+            split = ", ".join(f"{p['name']} {p['ms_per_frame']:.2f}" for p in chosen["passes"])
+            lines += [f"{label(chosen)} per pass, ms/frame: {split}.", ""]
+    return lines
 
 
 def on_front(cells, cell):
