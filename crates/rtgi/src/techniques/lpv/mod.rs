@@ -48,9 +48,13 @@ const FLUX_GROUPS: u32 = 256;
 /// Cells over which the lookup blends a cascade into the next coarser one near its border.
 const BLEND_CELLS: f32 = 2.0;
 
-/// Fixed-point sums per geometry-volume cell: blocking from the RSMs (4), from the G-buffer (4), and the
-/// albedo sums of MULTIPLE_BOUNCES (r, g, b and the covered fraction).
-const GEOMETRY_SUMS: u64 = 12;
+/// Per geometry-volume cell: the fixed-point sums (blocking from the RSMs (4), from the G-buffer (4),
+/// and with multiple bounces the albedo sums: r, g, b and the covered fraction) and the resolved vec4f
+/// slots (blocking, and with multiple bounces the albedo sums). Without multiple bounces no albedo is
+/// stored.
+pub fn geometry_layout(multiple_bounces: bool) -> (u64, u64) {
+    if multiple_bounces { (12, 2) } else { (8, 1) }
+}
 
 const LPV_PARAMS: [ParamSpec; 13] = with_direct_params!(
     ParamSpec {
@@ -171,7 +175,8 @@ pub fn defines(grid: u32, geometry_volume: bool, multiple_bounces: bool) -> Defi
         .u32("MAX_CASCADES", MAX_CASCADES as u32)
         .bool("GEOMETRY_VOLUME", geometry_volume)
         .bool("MULTIPLE_BOUNCES", multiple_bounces)
-        .u32("GEOMETRY_SUMS", GEOMETRY_SUMS as u32)
+        .u32("GEOMETRY_SUMS", geometry_layout(multiple_bounces).0 as u32)
+        .u32("GEOMETRY_SLOTS", geometry_layout(multiple_bounces).1 as u32)
         .f32("FRONT_SOLID_ANGLE", front)
         .f32("SIDE_SOLID_ANGLE", side)
         .f32("BLOCKING_SCALE", BLOCKING_SCALE)
@@ -251,7 +256,8 @@ impl Lpv {
         let geometry_cells = u64::from(grid + 1).pow(3) * cascades as u64;
         let limit = ctx.limits().max_storage_buffer_binding_size;
         let largest = cells * 48;
-        let geometry_bytes = geometry_cells * GEOMETRY_SUMS * 4;
+        let (sums, slots) = geometry_layout(multiple_bounces);
+        let geometry_bytes = geometry_cells * sums * 4;
         if largest > limit || geometry_bytes > limit {
             return Err(RenderError::InvalidSettings(format!(
                 "lpv: {cascades} cascade(s) of {grid}³ cells need storage buffers of {} MiB, over the device's \
@@ -283,7 +289,7 @@ impl Lpv {
             buffer("lpv light pong", cells * 48),
             buffer("lpv accumulated light", cells * 48),
         ];
-        let geometry = buffer("lpv geometry volume", geometry_cells * 32);
+        let geometry = buffer("lpv geometry volume", geometry_cells * slots * 16);
         // The scale and the partial sums of the FLUX_GROUPS workgroups.
         let flux_scale = buffer("lpv flux scale", 4 * (1 + u64::from(FLUX_GROUPS)));
         let step_values: Vec<PropagationStep> =

@@ -39,7 +39,7 @@ fn geometry_at(cascade: u32, g: vec3f, slot: u32) -> vec4f {
     for (var k = 0u; k < 8u; k++) {
         let corner = vec3u(k & 1u, (k >> 1u) & 1u, k >> 2u);
         let w = select(1.0 - f, f, corner == vec3u(1u));
-        sum += geometry[2u * geometry_index(cascade, b + corner) + slot] * (w.x * w.y * w.z);
+        sum += geometry[GEOMETRY_SLOTS * geometry_index(cascade, b + corner) + slot] * (w.x * w.y * w.z);
     }
     return sum;
 }

@@ -44,11 +44,11 @@ fn main(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) grou
         let from_lights = take_blocking(base);
         let from_camera = take_blocking(base + 4u);
         let b = select(from_camera, from_lights, from_lights.x >= from_camera.x);
-        geometry[2u * i] = b * (1.0 / BLOCKING_SCALE);
+        geometry[GEOMETRY_SLOTS * i] = b * (1.0 / BLOCKING_SCALE);
         if MULTIPLE_BOUNCES {
             // Kept as sums (albedo × covered fraction, covered fraction): interpolated between cells
             // and divided where used, the mean is over the surfaces, not over empty cells too.
-            geometry[2u * i + 1u] = take_blocking(base + 8u) * (1.0 / BLOCKING_SCALE);
+            geometry[GEOMETRY_SLOTS * i + 1u] = take_blocking(base + 8u) * (1.0 / BLOCKING_SCALE);
         }
     }
 }

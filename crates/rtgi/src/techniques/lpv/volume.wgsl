@@ -7,8 +7,8 @@
 // half a cell: its (GRID+1)³ cells are centred on the LPV cells' corners, and each holds the blocking
 // potential B(ω), the fraction of light travelling in direction ω that its surfaces stop, as one
 // order-1 SH, followed by the diffuse albedo of those surfaces (MULTIPLE_BOUNCES only) as the sums of
-// albedo × covered fraction (rgb) and of the covered fraction (w): two vec4f per cell, `geometry[2i]`
-// and `geometry[2i + 1]`.
+// albedo × covered fraction (rgb) and of the covered fraction (w): GEOMETRY_SLOTS vec4f per cell,
+// `geometry[GEOMETRY_SLOTS i]` and `geometry[GEOMETRY_SLOTS i + 1]`.
 
 #import common/sh.wgsl
 
