@@ -88,6 +88,14 @@ pub struct RenderArgs {
     /// Scale of the --environment map's radiance.
     #[arg(long, default_value_t = 1.0, value_name = "SCALE")]
     environment_intensity: f32,
+    /// View from here instead of the scene's camera: position, target and vertical field of view in
+    /// degrees (`rtgi view` copies this for its current view).
+    #[arg(long, value_name = "X,Y,Z,TX,TY,TZ,FOV", allow_hyphen_values = true)]
+    camera: Option<String>,
+    /// Random numbers of the first frame (warm-up included) are those of frame N: `rtgi view` copies
+    /// the frame its view's accumulation started at, so a progressive image is reproduced exactly.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    first_frame: u32,
     /// Use the first GPU adapter whose name contains this (case-insensitive).
     #[arg(long, value_name = "NAME")]
     adapter: Option<String>,
@@ -153,6 +161,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         scene.environment = rtgi::scene::Environment::Map(map);
     }
     print_warnings(&scene);
+    let camera = args
+        .camera
+        .as_deref()
+        .map(|c| rtgi::scene::Camera::parse_placement(c, &scene.camera))
+        .transpose()
+        .map_err(|e| anyhow!("--camera {e}"))?;
     let gpu = GpuContext::new(&GpuOptions { adapter_filter: args.adapter.clone() }).map_err(|e| {
         let e = anyhow::Error::new(e);
         match &args.adapter {
@@ -170,6 +184,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let bar = progress_bar(steps);
     let result = (|| -> anyhow::Result<()> {
         renderer.set_jitter(jitter)?;
+        renderer.set_frame_counter(args.first_frame);
+        if let Some(camera) = camera {
+            renderer.set_camera(camera);
+        }
         if args.warmup > 0 {
             renderer.set_time(args.warmup_time.unwrap_or(args.time))?;
             for _ in 0..args.warmup {

@@ -736,6 +736,12 @@ impl Renderer {
         Ok(())
     }
 
+    /// The radiance texture of the last frame (rgba32float, the size of the frame), for display on the
+    /// GPU ([`crate::gpu::display::Display`]) without a readback. Replaced by a resize.
+    pub fn output(&self) -> &wgpu::Texture {
+        &self.output
+    }
+
     /// The radiance of the last frame (the technique's output: accumulated where it accumulates).
     pub fn read_image(&self) -> Result<HdrImage, RenderError> {
         let texels = readback::read_texture(&self.ctx, &self.output, 16)?;

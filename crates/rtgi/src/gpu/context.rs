@@ -184,6 +184,8 @@ pub struct GpuOptions {
 /// The device every rtgi pass runs on. Cloning is cheap and shares the device.
 #[derive(Clone)]
 pub struct GpuContext {
+    /// The instance the adapter came from: a viewer creates its window surface with it.
+    pub instance: wgpu::Instance,
     pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
@@ -259,11 +261,12 @@ impl GpuContext {
         let adapters = pollster::block_on(instance.enumerate_adapters(backends));
         let mut skipped = Vec::new();
         let mut usable = usable_adapters(adapters.into_iter(), options, &mut skipped);
+        let mut instance = instance;
         if usable.is_empty() && backends == wgpu::Backends::PRIMARY {
             let mut gl = wgpu::InstanceDescriptor::new_without_display_handle();
             gl.backends = wgpu::Backends::GL;
-            let gl_adapters =
-                pollster::block_on(wgpu::Instance::new(gl).enumerate_adapters(wgpu::Backends::GL));
+            instance = wgpu::Instance::new(gl);
+            let gl_adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::GL));
             usable = usable_adapters(gl_adapters.into_iter(), options, &mut skipped);
             backends |= wgpu::Backends::GL;
         }
@@ -286,6 +289,7 @@ impl GpuContext {
                         driver_info: info.driver_info.clone(),
                     };
                     return Ok(GpuContext {
+                        instance,
                         adapter,
                         device,
                         queue,

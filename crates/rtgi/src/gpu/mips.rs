@@ -5,9 +5,9 @@
 use std::collections::HashMap;
 use std::sync::Mutex;
 
-use super::dispatch::compute_pass;
+use super::dispatch::{compute_pass, compute_pipeline};
 use super::{GpuContext, GpuError};
-use crate::shaders::{Defines, create_module};
+use crate::shaders::Defines;
 
 const KERNEL: &str = include_str!("mips.wgsl");
 
@@ -225,24 +225,8 @@ fn create_pipeline(
             },
         ],
     });
-    ctx.checked(&name, || -> Result<_, GpuError> {
-        let module =
-            create_module(ctx, &name, &source, &defines).map_err(|e| GpuError::Other(e.to_string()))?;
-        let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(&name),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(&name),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        Ok(MipPipeline { pipeline, layout })
-    })?
+    let pipeline = compute_pipeline(ctx, &name, &source, &defines, &layout)?;
+    Ok(MipPipeline { pipeline, layout })
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 pub mod bvh;
 pub mod context;
 pub mod dispatch;
+pub mod display;
 pub mod features;
 pub mod kernel;
 pub mod mips;

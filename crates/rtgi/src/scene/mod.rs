@@ -291,6 +291,40 @@ impl Camera {
     pub fn view_projection(&self, aspect: f32) -> Mat4 {
         self.projection(aspect) * self.view()
     }
+
+    /// Parses a placement `X,Y,Z,TX,TY,TZ,FOV`: position, target and vertical field of view in degrees
+    /// (what [`Self::placement`] writes); up and clip distances come from `base`.
+    pub fn parse_placement(text: &str, base: &Camera) -> Result<Camera, String> {
+        let values = text
+            .split(',')
+            .map(|v| v.trim().parse::<f32>().ok().filter(|v| v.is_finite()))
+            .collect::<Option<Vec<f32>>>()
+            .filter(|v| v.len() == 7)
+            .ok_or_else(|| {
+                format!(
+                    "'{text}': expected seven finite numbers X,Y,Z,TX,TY,TZ,FOV (position, target, degrees)"
+                )
+            })?;
+        let position = Vec3::new(values[0], values[1], values[2]);
+        let target = Vec3::new(values[3], values[4], values[5]);
+        if (target - position).length() <= 1e-6 * position.length().max(1.0) {
+            return Err(format!("'{text}': the target is the position; the camera needs a direction"));
+        }
+        if (target - position).normalize().cross(base.up.normalize()).length() < 1e-4 {
+            return Err(format!("'{text}': the camera looks along its up axis ({})", base.up));
+        }
+        if !(values[6] > 0.0 && values[6] < 180.0) {
+            return Err(format!("'{text}': field of view {} degrees is outside (0, 180)", values[6]));
+        }
+        Ok(Camera { position, target, yfov: values[6].to_radians(), ..*base })
+    }
+
+    /// This camera as `X,Y,Z,TX,TY,TZ,FOV` for [`Self::parse_placement`] (shortest round-trip decimals).
+    pub fn placement(&self) -> String {
+        let p = self.position;
+        let t = self.target;
+        format!("{},{},{},{},{},{},{}", p.x, p.y, p.z, t.x, t.y, t.z, self.yfov.to_degrees())
+    }
 }
 
 /// Axis-aligned bounding box.
@@ -528,4 +562,36 @@ pub fn generate_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], ind
             t.extend(w)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod camera_tests {
+    use super::*;
+
+    #[test]
+    fn placement_round_trips_and_rejects_bad_input() {
+        let base = Camera { znear: 0.05, zfar: 40.0, ..Camera::default() };
+        let camera =
+            Camera { position: Vec3::new(0.1, 1.25, -3.7), target: Vec3::new(2.0, 0.3, 1.0 / 3.0), ..base };
+        let parsed = Camera::parse_placement(&camera.placement(), &base).expect("round trip");
+        assert_eq!(parsed.position, camera.position);
+        assert_eq!(parsed.target, camera.target);
+        assert!(
+            (parsed.yfov - camera.yfov).abs() <= 1e-6 * camera.yfov,
+            "{} vs {}",
+            parsed.yfov,
+            camera.yfov
+        );
+        assert_eq!((parsed.znear, parsed.zfar, parsed.up), (0.05, 40.0, Vec3::Y));
+        for bad in [
+            "1,2,3",
+            "1,2,3,4,5,6,x",
+            "0,0,0,0,0,0,45",
+            "0,0,0,0,5,0,45",
+            "0,0,0,0,0,-1,180",
+            "nan,0,0,1,0,0,45",
+        ] {
+            assert!(Camera::parse_placement(bad, &base).is_err(), "{bad} accepted");
+        }
+    }
 }

@@ -125,7 +125,7 @@ impl Motion {
 }
 
 /// A real-time GI technique (or the reference path tracer).
-pub trait Technique {
+pub trait Technique: Send {
     /// Records and submits the frame's passes, each inside `profiler.pass(..)`.
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError>;
 
