@@ -7,6 +7,7 @@
 mod bench;
 mod list;
 mod render;
+mod view;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -34,6 +35,10 @@ enum Command {
     // and the user's arguments after them.
     #[command(args_override_self = true)]
     Render(Box<render::RenderArgs>),
+    /// Open a window to fly through a scene and switch techniques and parameters live (needs a
+    /// display; under Xvfb on headless machines). Keys: WASD move, Q/E down/up, Shift faster, drag in
+    /// the image to turn, wheel changes the speed.
+    View(Box<view::ViewArgs>),
     /// List the built-in scenes and the techniques with their parameters.
     List,
     /// Run a bench suite (scenes × techniques × parameter sweeps × sizes): GPU time per frame and per
@@ -362,6 +367,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render::run(&args),
+        Command::View(args) => view::run(&args),
         Command::List => list::run(),
         Command::Bench(args) => bench::run(&args),
         Command::ExportScene { name, out } => export_scene(&name, &out),
