@@ -24,7 +24,7 @@ SCRIPT = "measure-view.py"
 OUT = m.scratch("view")
 DOC = m.ROOT / "docs/measurements"
 SCENE = "cornell"
-TECHNIQUES = ["direct", "rsm", "ddgi", "path"]
+TECHNIQUES = ["direct", "rsm", "ddgi"]
 WARMUP = 4
 
 
