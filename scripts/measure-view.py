@@ -73,14 +73,15 @@ def main():
     lines = [
         f"# `rtgi view`: the window's cost per frame ({args.size}, {m.adapter_text(adapter)})",
         "",
-        f"Printed by `{command}` at commit `{m.describe()}` on {m.adapter_text(adapter)}"
-        f"; {m.load_text(start_load, m.load_average())}.",
+        f"Printed by `{command}` at commit `{m.describe()}` on {m.adapter_text(adapter)}. "
+        + m.load_text(start_load, m.load_average()),
         "",
         f"`{SCENE}` rendered at {args.size}. Viewer: wall time per rendered frame over {args.frames} frames "
         f"after {WARMUP} warm-up frames, measured by its `--script` (`measure`), the window under Xvfb "
         "showing each frame (GPU tone map, egui panel, present). Render: `rtgi render --frames "
         f"{args.frames + 1}` of the same view, wall time per frame after the first (`frame_wall` of its "
-        "statistics). Overhead: viewer over render.",
+        "statistics). Overhead: viewer over render. On a CPU driver the window's own work (egui's "
+        "tessellation and drawing, the present through Xvfb) runs on the same cores as the rendering.",
         "",
         "| technique | viewer ms/frame | render ms/frame | overhead |",
         "|---|---:|---:|---:|",
