@@ -441,7 +441,9 @@ impl Worker {
         }
         self.frames += 1;
         self.show()?;
-        if self.flip_map && self.last_flip.is_none_or(|t| t.elapsed() > Duration::from_secs(1)) {
+        // About once a second while rendering, and on the frame a hold stops at (the image then shown).
+        let due = self.last_flip.is_none_or(|t| t.elapsed() > Duration::from_secs(1)) || self.idle();
+        if self.flip_map && due {
             self.update_flip()?;
         }
         Ok(())
