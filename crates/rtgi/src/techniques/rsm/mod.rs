@@ -89,7 +89,7 @@ const RSM_PARAMS: [ParamSpec; 13] = with_direct_params!(
 const RSM_INTERLEAVED_PARAMS: [ParamSpec; 12] =
     with_direct_params!(RSM_SIZE, SAMPLES, R_MAX, WEIGHTING, INTERLEAVE,);
 
-const SII_PARAMS: [ParamSpec; 12] = with_direct_params!(
+const SII_PARAMS: [ParamSpec; 13] = with_direct_params!(
     RSM_SIZE,
     ParamSpec {
         name: "vpls",
@@ -115,6 +115,13 @@ const SII_PARAMS: [ParamSpec; 12] = with_direct_params!(
         kind: ParamKind::Bool,
         default: "true",
         doc: "interleaved: scale each VPL by N·M (the thesis did not, so its images lose (N·M−1)/(N·M) of the light)",
+    },
+    ParamSpec {
+        name: "splat",
+        kind: ParamKind::Choice(&["tiles", "raster"]),
+        default: "tiles",
+        doc: "tiles: per-tile VPL sets and a per-texel loop in compute (no blending); raster: one additively \
+              blended quad per VPL (the paper's way); same texels, values and order",
     },
 );
 

@@ -44,14 +44,39 @@ pub fn vpl_source() -> String {
     map::reader_source(&format!("{VPL_STRUCT_WGSL}\n{}", include_str!("vpl.wgsl")))
 }
 
-/// The source of the splat shader.
-pub fn splat_source() -> String {
+/// The source of a splat shader: `body` (raster or tiled) after what both share.
+fn splat_shader(body: &str) -> String {
     map::reader_source(&format!(
-        "{}\n{}\n{VPL_STRUCT_WGSL}\n{}",
+        "{}\n{}\n{VPL_STRUCT_WGSL}\n{}\n{body}",
         interleave::ATLAS_WGSL,
         interleave::SURFACES_WGSL,
-        include_str!("splat.wgsl")
+        include_str!("splat_common.wgsl")
     ))
+}
+
+/// The source of the raster splat shader.
+pub fn splat_source() -> String {
+    splat_shader(include_str!("splat.wgsl"))
+}
+
+/// The source of the tiled compute splat.
+pub fn tiles_source() -> String {
+    splat_shader(include_str!("splat_tiles.wgsl"))
+}
+
+/// How VPLs reach the atlas (parameter `splat`).
+enum Splatting {
+    /// One instanced quad per VPL, additively blended (the paper's way).
+    Raster { pipeline: wgpu::RenderPipeline, group: wgpu::BindGroup },
+    /// Per-tile VPL sets, then a per-texel loop over its tile's set (`splat_tiles.wgsl`).
+    Tiles {
+        rects: wgpu::ComputePipeline,
+        bins: wgpu::ComputePipeline,
+        tiles: wgpu::ComputePipeline,
+        group: wgpu::BindGroup,
+        /// Tiles across and down the atlas, 32-VPL words per tile.
+        grid: [u32; 3],
+    },
 }
 
 pub struct Splat {
@@ -65,8 +90,7 @@ pub struct Splat {
     params: VplParams,
     params_buffer: wgpu::Buffer,
     pub(super) vpl_buffer: wgpu::Buffer,
-    splat_pipeline: wgpu::RenderPipeline,
-    splat_group: wgpu::BindGroup,
+    splatting: Splatting,
     pub(super) atlas: wgpu::Texture,
     atlas_view: wgpu::TextureView,
     resolve: Resolve,
@@ -134,12 +158,16 @@ impl Splat {
 
         // Splatting.
         let split = SplitGBuffer::new(ctx, setup.frame, layout, &setup.gpu_scene.bind_group_layout)?;
-        let atlas_format = if ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
+        let tiled = p.choice("splat") == "tiles";
+        // Blending rgba32float needs an optional feature; storage writes of it do not.
+        let atlas_format = if tiled || ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
             wgpu::TextureFormat::Rgba32Float
         } else {
             wgpu::TextureFormat::Rgba16Float
         };
         let (aw, ah) = layout.size();
+        let target_usage =
+            if tiled { wgpu::TextureUsages::STORAGE_BINDING } else { wgpu::TextureUsages::RENDER_ATTACHMENT };
         let atlas = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("sii indirect atlas"),
             size: wgpu::Extent3d { width: aw, height: ah, depth_or_array_layers: 1 },
@@ -147,12 +175,50 @@ impl Splat {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: atlas_format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
+            usage: target_usage | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
         let atlas_view = atlas.create_view(&Default::default());
+        let defines =
+            layout.defines(Defines::new()).bool("SPLIT_GBUFFER", layout.is_interleaved()).f32("SCALE", scale);
+        let splatting = if tiled {
+            Self::tiles(setup, &split, &vpl_buffer, &atlas_view, &rsm, count, (aw, ah), defines)?
+        } else {
+            Self::raster(setup, &split, &vpl_buffer, &rsm, atlas_format, &defines)?
+        };
+
+        let resolve = Resolve::new(setup, layout, &atlas, &direct_target)?;
+        Ok(Splat {
+            direct,
+            rsm,
+            layout,
+            split,
+            cdf_pipeline,
+            vpl_pipeline,
+            vpl_group,
+            params,
+            params_buffer,
+            vpl_buffer,
+            splatting,
+            atlas,
+            atlas_view,
+            resolve,
+            cdf_built: false,
+            atlas_format,
+        })
+    }
+}
+
+impl Splat {
+    fn raster(
+        setup: &TechniqueSetup,
+        split: &SplitGBuffer,
+        vpl_buffer: &wgpu::Buffer,
+        rsm: &ReflectiveShadowMap,
+        atlas_format: wgpu::TextureFormat,
+        defines: &Defines,
+    ) -> Result<Splatting, RenderError> {
+        let ctx = setup.ctx;
         let mut entries = vec![wgpu::BindGroupLayoutEntry {
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
             ..compute::storage_buffer_entry(0, true)
@@ -164,14 +230,12 @@ impl Splat {
         for (i, r) in split.resources().into_iter().enumerate() {
             resources.push(wgpu::BindGroupEntry { binding: 8 + i as u32, resource: r });
         }
-        let splat_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("splat"),
             layout: &splat_layout,
             entries: &resources,
         });
-        let defines =
-            layout.defines(Defines::new()).bool("SPLIT_GBUFFER", layout.is_interleaved()).f32("SCALE", scale);
-        let module = shaders::create_module(ctx, "splat", &splat_source(), &defines)?;
+        let module = shaders::create_module(ctx, "splat", &splat_source(), defines)?;
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("splat"),
             bind_group_layouts: &[
@@ -187,7 +251,7 @@ impl Splat {
             dst_factor: wgpu::BlendFactor::One,
             operation: wgpu::BlendOperation::Add,
         };
-        let splat_pipeline = ctx.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        let pipeline = ctx.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("splat"),
             layout: Some(&pipeline_layout),
             vertex: wgpu::VertexState {
@@ -212,27 +276,122 @@ impl Splat {
             multiview_mask: None,
             cache: None,
         });
+        Ok(Splatting::Raster { pipeline, group })
+    }
 
-        let resolve = Resolve::new(setup, layout, &atlas, &direct_target)?;
-        Ok(Splat {
-            direct,
-            rsm,
-            layout,
-            split,
-            cdf_pipeline,
-            vpl_pipeline,
-            vpl_group,
-            params,
-            params_buffer,
-            vpl_buffer,
-            splat_pipeline,
-            splat_group,
-            atlas,
-            atlas_view,
-            resolve,
-            cdf_built: false,
-            atlas_format,
+    #[allow(clippy::too_many_arguments)]
+    fn tiles(
+        setup: &TechniqueSetup,
+        split: &SplitGBuffer,
+        vpl_buffer: &wgpu::Buffer,
+        atlas_view: &wgpu::TextureView,
+        rsm: &ReflectiveShadowMap,
+        count: u32,
+        (aw, ah): (u32, u32),
+        defines: Defines,
+    ) -> Result<Splatting, RenderError> {
+        let ctx = setup.ctx;
+        let (tiles_x, tiles_y, words) =
+            (aw.div_ceil(compute::TILE), ah.div_ceil(compute::TILE), count.div_ceil(32));
+        let bin_bytes = u64::from(tiles_x) * u64::from(tiles_y) * u64::from(words) * 4;
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        if bin_bytes > limit {
+            return Err(RenderError::InvalidSettings(format!(
+                "sii tiles: {count} VPLs over {tiles_x}x{tiles_y} tiles need {bin_bytes} bytes of VPL sets, over \
+                 the device's max_storage_buffer_binding_size of {limit}: fewer vpls, a smaller image or \
+                 splat=raster"
+            )));
+        }
+        let max_groups = ctx.limits().max_compute_workgroups_per_dimension;
+        if words.div_ceil(64).max(tiles_x).max(tiles_y) > max_groups {
+            return Err(RenderError::InvalidSettings(format!(
+                "sii tiles: {tiles_x}x{tiles_y} tiles of {words} words exceed the device's \
+                 max_compute_workgroups_per_dimension of {max_groups}"
+            )));
+        }
+        let rects = compute::storage_buffer(ctx, "splat rects", u64::from(count) * 16);
+        let bins = compute::storage_buffer(ctx, "splat tile sets", bin_bytes);
+        let mut entries = vec![
+            compute::storage_buffer_entry(0, true),
+            compute::storage_buffer_entry(1, false),
+            compute::storage_buffer_entry(2, false),
+            compute::storage_texture_entry(
+                3,
+                wgpu::TextureFormat::Rgba32Float,
+                wgpu::StorageTextureAccess::WriteOnly,
+            ),
+        ];
+        entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
+        let layout = compute::layout(ctx, "splat tiles", &entries);
+        let mut resources = vec![
+            vpl_buffer.as_entire_binding(),
+            rects.as_entire_binding(),
+            bins.as_entire_binding(),
+            wgpu::BindingResource::TextureView(atlas_view),
+        ];
+        let surfaces = split.resources();
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("splat tiles"),
+            layout: &layout,
+            entries: &resources
+                .drain(..)
+                .enumerate()
+                .map(|(i, resource)| wgpu::BindGroupEntry { binding: i as u32, resource })
+                .chain(
+                    surfaces
+                        .into_iter()
+                        .enumerate()
+                        .map(|(i, resource)| wgpu::BindGroupEntry { binding: 8 + i as u32, resource }),
+                )
+                .collect::<Vec<_>>(),
+        });
+        let defines = defines.u32("VPL_COUNT", count).u32("BIN_WORDS", words).u32("TILES_X", tiles_x);
+        let layouts =
+            [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout, &rsm.layout];
+        let source = tiles_source();
+        let pipeline =
+            |entry: &str| compute::pipeline(ctx, "splat tiles", &source, defines.clone(), entry, &layouts);
+        Ok(Splatting::Tiles {
+            rects: pipeline("splat_rects")?,
+            bins: pipeline("splat_bins")?,
+            tiles: pipeline("splat_tiles")?,
+            group,
+            grid: [tiles_x, tiles_y, words],
         })
+    }
+
+    /// Records the splat of this frame's VPLs into the atlas.
+    fn record_splat(&self, e: &mut wgpu::CommandEncoder, scene: &wgpu::BindGroup, frame: &wgpu::BindGroup) {
+        match &self.splatting {
+            Splatting::Raster { pipeline, group } => {
+                let mut pass = e.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("splat"),
+                    color_attachments: &[crate::frame::cleared_target(&self.atlas_view)],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, scene, &[]);
+                pass.set_bind_group(1, frame, &[]);
+                pass.set_bind_group(2, group, &[]);
+                pass.set_bind_group(3, &self.rsm.bind_group, &[]);
+                pass.draw(0..6, 0..self.params.count);
+            }
+            Splatting::Tiles { rects, bins, tiles, group, grid: [tiles_x, tiles_y, words] } => {
+                let groups = [scene, frame, group, &self.rsm.bind_group];
+                compute::dispatch(e, "splat rects", rects, &groups, [self.params.count.div_ceil(64), 1, 1]);
+                compute::dispatch(
+                    e,
+                    "splat tile sets",
+                    bins,
+                    &groups,
+                    [words.div_ceil(64), *tiles_x, *tiles_y],
+                );
+                compute::dispatch(e, "splat tiles", tiles, &groups, [*tiles_x, *tiles_y, 1]);
+            }
+        }
     }
 }
 
@@ -279,22 +438,7 @@ impl Technique for Splat {
         if self.layout.is_interleaved() {
             profiler.pass(ctx, "split", |e| self.split.record(e, scene, frame))?;
         }
-        profiler.pass(ctx, "splat", |e| {
-            let mut pass = e.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("splat"),
-                color_attachments: &[crate::frame::cleared_target(&self.atlas_view)],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.splat_pipeline);
-            pass.set_bind_group(0, scene, &[]);
-            pass.set_bind_group(1, frame, &[]);
-            pass.set_bind_group(2, &self.splat_group, &[]);
-            pass.set_bind_group(3, &self.rsm.bind_group, &[]);
-            pass.draw(0..6, 0..self.params.count);
-        })?;
+        profiler.pass(ctx, "splat", |e| self.record_splat(e, scene, frame))?;
         self.resolve.render(fc, profiler)
     }
 

@@ -73,6 +73,16 @@ fn shaders_validate() {
         &splat::splat_source(),
         &atlas_defines(&l).bool("SPLIT_GBUFFER", true).f32("SCALE", 8.0),
     );
+    validate(
+        "splat tiles",
+        &splat::tiles_source(),
+        &atlas_defines(&l)
+            .bool("SPLIT_GBUFFER", true)
+            .f32("SCALE", 8.0)
+            .u32("VPL_COUNT", 100)
+            .u32("BIN_WORDS", 4)
+            .u32("TILES_X", 3),
+    );
 }
 
 /// The adapter check (`gpu::context::REQUIRED_FORMAT_USAGES`) asks for the RSM's render targets.
@@ -393,10 +403,11 @@ fn every_vpl_reaches_exactly_one_sub_buffer() {
     use crate::gpu::readback::{read_buffer, read_texture};
     let f = fixture("cornell-spot", 64, 48);
     let (n, m, count) = (4u32, 2u32, 64u32);
-    let settings: Vec<(String, String)> = [("interleave", "4x2"), ("vpls", "64"), ("rescale", "false")]
-        .iter()
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect();
+    let settings: Vec<(String, String)> =
+        [("interleave", "4x2"), ("vpls", "64"), ("rescale", "false"), ("splat", "raster")]
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
     let (_, params) = crate::techniques::resolve("sii", &settings).expect("params");
     let setup = f.setup(&params);
     let mut sii = splat::Splat::new(&setup, (n, m)).expect("sii");
@@ -426,6 +437,66 @@ fn every_vpl_reaches_exactly_one_sub_buffer() {
     }
     // Every sub-buffer received splats: the cornell box fills the view and the VPLs reach the whole box.
     assert!(reached.iter().all(|&r| r > 0.0), "{reached:?}");
+}
+
+/// The atlas of one `sii` frame with `settings` on cornell-spot at 64×48 (rgba, f32).
+fn sii_atlas(settings: &[(&str, &str)]) -> (Vec<f32>, wgpu::TextureFormat) {
+    use crate::gpu::Profiler;
+    let f = fixture("cornell-spot", 64, 48);
+    let settings: Vec<(String, String)> =
+        settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    let (_, params) = crate::techniques::resolve("sii", &settings).expect("params");
+    let setup = f.setup(&params);
+    let mut sii = splat::Splat::new(&setup, super::interleave_param(&params).expect("pattern")).expect("sii");
+    let fc = FrameContext::still(&f.ctx, &f.gpu_scene, &f.frame);
+    crate::techniques::Technique::render_frame(
+        &mut sii,
+        &fc,
+        &mut Profiler::new(&f.ctx, crate::gpu::TimingMode::Passes),
+    )
+    .expect("frame");
+    let format = sii.atlas.format();
+    let bytes =
+        crate::gpu::readback::read_texture(&f.ctx, &sii.atlas, format.block_copy_size(None).expect("size"))
+            .expect("atlas");
+    let texels = if format == wgpu::TextureFormat::Rgba32Float {
+        bytemuck::cast_slice::<u8, f32>(&bytes).to_vec()
+    } else {
+        bytemuck::cast_slice::<u8, u16>(&bytes).iter().map(|h| half::f16::from_bits(*h).to_f32()).collect()
+    };
+    (texels, format)
+}
+
+/// The tiled compute splat reaches the texels the raster splat reaches, with the same sums: same VPLs,
+/// same order of addition. Whole image and interleaved 4x2, with VPLs enough to span several 32-VPL
+/// words of the tile sets.
+#[test]
+fn tiled_splatting_equals_raster_splatting() {
+    for interleave in ["1x1", "4x2"] {
+        let common = [("interleave", interleave), ("vpls", "100"), ("splat_threshold", "0.1")];
+        let (raster, format) = sii_atlas(&[common.as_slice(), &[("splat", "raster")]].concat());
+        let (tiles, _) = sii_atlas(&[common.as_slice(), &[("splat", "tiles")]].concat());
+        assert_eq!(raster.len(), tiles.len());
+        let mut worst = 0.0f32;
+        let mut covered = 0;
+        for (r, t) in raster.chunks_exact(4).zip(tiles.chunks_exact(4)) {
+            assert_eq!(
+                r[3], t[3],
+                "{interleave}: a texel got {} VPLs from the raster splat and {} from tiles",
+                r[3], t[3]
+            );
+            covered += usize::from(r[3] > 0.0);
+            for c in 0..3 {
+                worst = worst.max((r[c] - t[c]).abs() / r[c].abs().max(1e-3));
+            }
+        }
+        assert!(covered > raster.len() / 8, "{interleave}: only {covered} texels splatted");
+        // Measured 0 on lavapipe (the same f32 additions in the same order); a driver may contract the
+        // shading into FMAs differently in a fragment and a compute shader, and the raster atlas is
+        // rgba16float where blending rgba32float is unsupported.
+        let allowed = if format == wgpu::TextureFormat::Rgba32Float { 1e-5 } else { 2e-3 };
+        assert!(worst <= allowed, "{interleave}: tiles differ from raster by {worst} (relative)");
+    }
 }
 
 /// Sum over all RSM texels of the reflected flux Φ_p = π·I_p, per colour channel.
