@@ -48,8 +48,8 @@ def main():
         "the same texels with the same additions in the same order (unit test "
         "`tiled_splatting_equals_raster_splatting`: bit-equal atlases on lavapipe); the FLIP column compares "
         "the two techniques' final images. `rsm gather` is rsm's per-pixel gather of the same RSM at 256 "
-        "samples, full resolution. Scenes without analytic lights (cornell, furnace) give RSM techniques no "
-        "VPL light, but every pass still runs.",
+        "samples, full resolution. Scenes without analytic lights (cornell, furnace, spheres-env) give RSM "
+        "techniques no VPL light, but every pass still runs.",
         "",
         "| scene | splat tiles ms | splat raster ms | rsm gather ms | tiles / gather | raster / gather "
         "| tiles / raster | FLIP tiles vs raster |",
