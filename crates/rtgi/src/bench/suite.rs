@@ -468,6 +468,7 @@ warmup = 5
                 "quick.toml",
                 "rsm-timing.toml",
                 "rsm.toml",
+                "splat.toml",
                 "vxgi.toml"
             ]
         );
