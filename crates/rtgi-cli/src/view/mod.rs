@@ -164,6 +164,10 @@ struct Viewer {
     worker: Option<std::thread::JoinHandle<()>>,
     panel: PanelState,
     fly: Option<FlyCamera>,
+    /// Commands sent so far, and the number of the last camera move sent: until the render thread has
+    /// applied it, its reported camera is older than the fly camera's.
+    sent: u64,
+    camera_sent: u64,
     main: Option<Shown>,
     comparison: Option<Shown>,
     flip: Option<(egui::TextureHandle, u64)>,
@@ -208,6 +212,8 @@ impl Viewer {
             worker,
             panel,
             fly: None,
+            sent: 0,
+            camera_sent: 0,
             main: None,
             comparison: None,
             flip: None,
@@ -223,9 +229,13 @@ impl Viewer {
         }
     }
 
-    fn send(&self, command: Command) {
+    /// Sends a command to the render thread; returns its number (the thread reports how many it has
+    /// applied in `Status::commands_done`).
+    fn send(&mut self, command: Command) -> u64 {
         // A closed channel means the render thread ended; its last status says why.
         let _ = self.commands.send(command);
+        self.sent += 1;
+        self.sent
     }
 
     fn status(&self) -> (Status, u64) {
@@ -339,12 +349,10 @@ impl Viewer {
         let keys = !ui.ctx().egui_wants_keyboard_input();
         let drag = if response.dragged() { response.drag_delta() } else { egui::Vec2::ZERO };
         let input = ui.input(|i| FlyInput::gather(i, keys, drag, response.hovered()));
-        if self
-            .fly
-            .as_ref()
-            .is_none_or(|f| f.camera != status.camera && status.samples > 0 && !input.any_key())
-        {
-            // Follow the renderer's camera (scene camera, script, animation) whenever the user is not flying.
+        let moves_applied = status.commands_done >= self.camera_sent;
+        if self.fly.as_ref().is_none_or(|f| f.camera != status.camera && moves_applied) {
+            // Follow the renderer's camera when something else set it (scene camera, script, animation,
+            // a new scene) once the render thread has applied every move sent from here.
             let speed = self.fly.as_ref().map(|f| f.speed);
             let mut fly = FlyCamera::new(status.camera);
             if let Some(speed) = speed {
@@ -352,11 +360,12 @@ impl Viewer {
             }
             self.fly = Some(fly);
         }
-        if let Some(fly) = &mut self.fly {
+        if let Some(mut fly) = self.fly.take() {
             if fly.update(&input, dt) {
-                self.commands.send(Command::Camera(fly.camera)).ok();
+                self.camera_sent = self.send(Command::Camera(fly.camera));
             }
             self.panel.speed = fly.speed;
+            self.fly = Some(fly);
         }
         if input.any_key() {
             ui.ctx().request_repaint();
@@ -385,7 +394,9 @@ impl Viewer {
 
     fn handle(&mut self, ui: &egui::Ui, request: Request) {
         match request {
-            Request::Command(c) => self.send(c),
+            Request::Command(c) => {
+                self.send(c);
+            }
             Request::WindowScreenshot(path) => {
                 self.pending_window_shot = Some(path);
                 let (arrived, ctx) = (self.window_shot.clone(), ui.ctx().clone());
@@ -483,7 +494,7 @@ impl Viewer {
 /// Runs a script's actions, one at a time, each waiting for the render thread where it must.
 struct ScriptRunner {
     actions: std::collections::VecDeque<Action>,
-    /// Commands sent so far; an action is done once the render thread has applied them all.
+    /// The number of the script's last command; an action is done once the render thread has applied it.
     sent: u64,
     waiting: Option<Wait>,
 }
@@ -500,9 +511,8 @@ impl ScriptRunner {
         ScriptRunner { actions: actions.into(), sent: 0, waiting: None }
     }
 
-    fn send(&mut self, viewer: &Viewer, command: Command) {
-        viewer.send(command);
-        self.sent += 1;
+    fn send(&mut self, viewer: &mut Viewer, command: Command) {
+        self.sent = viewer.send(command);
         self.waiting = Some(Wait::Applied);
     }
 
