@@ -2,7 +2,7 @@
 //! report's SVG plots rendered (resvg) to check they draw what they claim.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use serde_json::Value;
 
@@ -29,14 +29,8 @@ sweep = { vpls = [16, 64] }
 scenes = ["cornell"]
 "#;
 
-fn rtgi(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rtgi"))
-        .args(args)
-        .current_dir(dir)
-        .env("RTGI_CACHE_DIR", dir.join("cache"))
-        .output()
-        .expect("the rtgi binary runs")
-}
+mod common;
+use common::rtgi_in as rtgi;
 
 fn ok(out: &Output) {
     assert!(out.status.success(), "stderr: {}", String::from_utf8_lossy(&out.stderr));

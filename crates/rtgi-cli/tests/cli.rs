@@ -6,13 +6,8 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-fn rtgi_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rtgi"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the rtgi binary runs")
-}
+mod common;
+use common::rtgi_in;
 
 /// Runs in a fresh folder so default outputs (out.png) never land in the source tree.
 fn rtgi(args: &[&str]) -> Output {

@@ -1,15 +1,9 @@
 //! End-to-end renders through the `rtgi` binary (these need a Vulkan adapter; lavapipe is enough).
 
 use std::path::Path;
-use std::process::Command;
 
-fn rtgi(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_rtgi"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the rtgi binary runs")
-}
+mod common;
+use common::rtgi_in as rtgi;
 
 fn ok(out: &std::process::Output) {
     assert!(out.status.success(), "rtgi failed: {}", String::from_utf8_lossy(&out.stderr));

@@ -10,14 +10,8 @@ use std::process::{Command, Output};
 
 use rtgi::image::HdrImage;
 
-fn rtgi(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rtgi"))
-        .args(args)
-        .current_dir(dir)
-        .env("RTGI_CACHE_DIR", dir.join("cache"))
-        .output()
-        .expect("the rtgi binary runs")
-}
+mod common;
+use common::rtgi_in as rtgi;
 
 /// `rtgi view ARGS` under a fresh virtual X server, or `None` where there is no Xvfb (outside CI).
 fn view_under_xvfb(dir: &Path, args: &[&str]) -> Option<Output> {
