@@ -145,6 +145,101 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     (nodes, weights)
 }
 
+/// A rotation of SH coefficients, band by band: [`ShRotation::apply`] turns the coefficients of f into
+/// those of f turned by R, g(d) = f(R⁻¹ d) — a full rotation, not only of zonal functions.
+///
+/// Each band's (2l+1)² matrix follows from the basis itself rather than from a recurrence tied to one
+/// sign convention: band l's functions satisfy Y_l(R⁻¹ d) = M_l Y_l(d) exactly, so M_l is the
+/// least-squares solution of that identity over 64 well-spread directions, and g's band-l coefficients
+/// are M_lᵀ c_l.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShRotation {
+    /// Band l's M_lᵀ, row-major, (2l+1)² values.
+    bands: [Vec<f64>; BANDS],
+}
+
+/// The SH rotation of the rotation matrix `r` (orthonormal, determinant 1).
+pub fn rotation(r: glam::Mat3) -> ShRotation {
+    const SAMPLES: usize = 64;
+    let inverse = r.transpose();
+    let directions: Vec<Vec3> = (0..SAMPLES)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / SAMPLES as f32;
+            let phi = i as f32 * 2.399_963;
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            Vec3::new(s * phi.cos(), s * phi.sin(), z)
+        })
+        .collect();
+    let at: Vec<[f32; COEFFICIENTS]> = directions.iter().map(|d| basis(*d)).collect();
+    let turned: Vec<[f32; COEFFICIENTS]> = directions.iter().map(|d| basis(inverse * *d)).collect();
+    let bands = std::array::from_fn(|l| {
+        let (first, n) = (l * l, 2 * l + 1);
+        // Normal equations: M (A Aᵀ) = B Aᵀ with A = Y_l(D), B = Y_l(R⁻¹ D) (n × SAMPLES).
+        let mut gram = vec![0.0f64; n * n];
+        let mut cross = vec![0.0f64; n * n];
+        for (a, b) in at.iter().zip(&turned) {
+            for i in 0..n {
+                for j in 0..n {
+                    gram[i * n + j] += f64::from(a[first + i]) * f64::from(a[first + j]);
+                    cross[i * n + j] += f64::from(b[first + i]) * f64::from(a[first + j]);
+                }
+            }
+        }
+        // M = cross · gram⁻¹; gram is symmetric, so Mᵀ = gram⁻¹ · crossᵀ: solve gram X = crossᵀ.
+        let mut rhs: Vec<f64> = (0..n * n).map(|k| cross[(k % n) * n + k / n]).collect();
+        solve_in_place(&mut gram, &mut rhs, n);
+        rhs
+    });
+    ShRotation { bands }
+}
+
+impl ShRotation {
+    pub fn apply(&self, c: &[f32; COEFFICIENTS]) -> [f32; COEFFICIENTS] {
+        let mut out = [0.0f32; COEFFICIENTS];
+        for (l, m) in self.bands.iter().enumerate() {
+            let (first, n) = (l * l, 2 * l + 1);
+            for i in 0..n {
+                out[first + i] = (0..n).map(|j| m[i * n + j] * f64::from(c[first + j])).sum::<f64>() as f32;
+            }
+        }
+        out
+    }
+
+    /// Band l's matrix (row-major, (2l+1)²), as it multiplies the band's coefficients.
+    pub fn band_matrix(&self, l: usize) -> &[f64] {
+        &self.bands[l]
+    }
+}
+
+/// Solves `a` X = `b` for the n × n matrix `a` and n columns of `b` (both row-major, overwritten; X is
+/// left in `b`) by Gaussian elimination with partial pivoting.
+fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) {
+    for col in 0..n {
+        let pivot =
+            (col..n).max_by(|&i, &j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs())).unwrap_or(col);
+        for k in 0..n {
+            a.swap(col * n + k, pivot * n + k);
+            b.swap(col * n + k, pivot * n + k);
+        }
+        let d = a[col * n + col];
+        for row in 0..n {
+            if row != col {
+                let f = a[row * n + col] / d;
+                for k in 0..n {
+                    a[row * n + k] -= f * a[col * n + k];
+                    b[row * n + k] -= f * b[col * n + k];
+                }
+            }
+        }
+    }
+    for row in 0..n {
+        let d = a[row * n + row];
+        for k in 0..n {
+            b[row * n + k] /= d;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -232,9 +327,63 @@ mod tests {
         let integral: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(10)).sum();
         assert!((integral - 2.0 / 11.0).abs() < 1e-12);
     }
+
+    fn some_rotation() -> glam::Mat3 {
+        glam::Mat3::from_quat(glam::Quat::from_axis_angle(Vec3::new(0.3, -0.8, 0.52).normalize(), 1.1))
+    }
+
+    fn test_coefficients() -> [f32; COEFFICIENTS] {
+        std::array::from_fn(|i| ((i * 37 % 11) as f32 - 5.0) / (1.0 + band(i) as f32))
+    }
+
+    /// Rotated coefficients equal the projection of the turned function g(d) = f(R⁻¹ d).
+    #[test]
+    fn rotation_matches_projecting_the_turned_function() {
+        let r = some_rotation();
+        let c = test_coefficients();
+        let rotated = rotation(r).apply(&c);
+        let projected = project(|d| f64::from(eval(&c, r.transpose() * d)));
+        let worst =
+            (0..COEFFICIENTS).map(|i| (f64::from(rotated[i]) - projected[i]).abs()).fold(0.0, f64::max);
+        // Measured 7.1e-7 (the f32 basis; the projection's quadrature is exact up to band 4).
+        assert!(worst < 1.5e-6, "rotated coefficients differ from the projection by {worst}");
+    }
+
+    #[test]
+    fn rotations_are_orthogonal_compose_and_keep_zonal_lobes_zonal() {
+        let (a, b) = (some_rotation(), glam::Mat3::from_rotation_z(0.7) * glam::Mat3::from_rotation_x(-0.4));
+        let c = test_coefficients();
+        let (ra, rb, rab) = (rotation(a), rotation(b), rotation(a * b));
+        let composed = ra.apply(&rb.apply(&c));
+        let direct = rab.apply(&c);
+        let worst = (0..COEFFICIENTS).map(|i| (composed[i] - direct[i]).abs()).fold(0.0, f32::max);
+        // Measured 3.3e-7.
+        assert!(worst < 7e-7, "R(a)R(b) differs from R(ab) by {worst}");
+        // Each band's matrix is orthogonal: energy per band is kept.
+        for l in 0..BANDS {
+            let (n, m) = (2 * l + 1, ra.band_matrix(l));
+            for i in 0..n {
+                for j in 0..n {
+                    let dot: f64 = (0..n).map(|k| m[i * n + k] * m[j * n + k]).sum();
+                    // Measured ≤ 1.7e-7.
+                    assert!((dot - f64::from(u8::from(i == j))).abs() < 4e-7, "band {l} ({i},{j}): {dot}");
+                }
+            }
+        }
+        // A zonal lobe about z, turned by a rotation taking z to `axis`, is the lobe about `axis`.
+        let axis = a * Vec3::Z;
+        let a_hat: [f32; BANDS] = std::array::from_fn(lambert);
+        let turned = ra.apply(&rotate_zonal(Vec3::Z, &a_hat));
+        let expected = rotate_zonal(axis, &a_hat);
+        let worst = (0..COEFFICIENTS).map(|i| (turned[i] - expected[i]).abs()).fold(0.0, f32::max);
+        // Measured 6.0e-8.
+        assert!(worst < 1.5e-7, "the turned zonal lobe differs from the lobe about the axis by {worst}");
+        let identity = rotation(glam::Mat3::IDENTITY).apply(&c);
+        // Measured 0 to rounding (1e-19).
+        assert!(identity.iter().zip(&c).all(|(x, y)| (x - y).abs() < 1e-7), "{identity:?}");
+    }
 }
 
-/// `shaders/common/sh.wgsl` computes the same basis and kernel coefficients as this module.
 #[cfg(test)]
 mod gpu_tests {
     use super::*;
