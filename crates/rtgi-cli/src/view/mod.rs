@@ -119,9 +119,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
     eframe::run_native(
         "rtgi view",
         options,
-        Box::new(move |cc| {
-            Ok(Box::new(Viewer::new(cc, start, shared, panel, script, render_size.is_some(), app_failure)))
-        }),
+        Box::new(move |cc| Ok(Box::new(Viewer::new(cc, start, shared, panel, script, app_failure)))),
     )
     .map_err(|e| anyhow!("rtgi view: the window could not run: {e}"))?;
     if let Some(message) = failure.lock().ok().and_then(|f| f.clone()) {
@@ -171,8 +169,6 @@ struct Viewer {
     main: Option<Shown>,
     comparison: Option<Shown>,
     flip: Option<(egui::TextureHandle, u64)>,
-    generation: u64,
-    fixed_size: bool,
     /// The render size last asked for and since when the image area has had another size.
     requested_size: Option<(u32, u32)>,
     resize_since: Option<(Instant, (u32, u32))>,
@@ -191,7 +187,6 @@ impl Viewer {
         shared: Arc<Mutex<Shared>>,
         panel: PanelState,
         script: Option<Vec<Action>>,
-        fixed_size: bool,
         failure: Arc<Mutex<Option<String>>>,
     ) -> Viewer {
         let (commands, receiver) = std::sync::mpsc::channel();
@@ -217,8 +212,6 @@ impl Viewer {
             main: None,
             comparison: None,
             flip: None,
-            generation: 0,
-            fixed_size,
             requested_size: None,
             resize_since: None,
             last_frame: Instant::now(),
@@ -238,22 +231,29 @@ impl Viewer {
         self.sent
     }
 
-    fn status(&self) -> (Status, u64) {
-        let shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-        (shared.status.clone(), shared.images.generation)
+    fn status(&self) -> Status {
+        self.shared.lock().unwrap_or_else(|p| p.into_inner()).status.clone()
     }
 
     /// Registers (or re-points) the display textures with egui when the render thread replaced them.
     fn refresh_textures(&mut self, frame: &eframe::Frame, ui: &egui::Ui) {
         let Some(render_state) = frame.wgpu_render_state() else { return };
-        let (generation, main, comparison, flip) = {
+        let shown_flip = self.flip.as_ref().map(|(_, serial)| *serial);
+        let (main, comparison, flip) = {
             let shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-            let flip =
-                shared.images.flip_map.as_ref().map(|(rgb, w, h, serial)| (rgb.clone(), *w, *h, *serial));
-            (shared.images.generation, shared.images.main.clone(), shared.images.comparison.clone(), flip)
+            // The map's pixels are copied only when a new one arrived.
+            let flip = shared
+                .images
+                .flip_map
+                .as_ref()
+                .filter(|(.., serial)| Some(*serial) != shown_flip)
+                .map(|(rgb, w, h, serial)| (rgb.clone(), *w, *h, *serial));
+            (shared.images.main.clone(), shared.images.comparison.clone(), flip)
         };
-        if generation != self.generation {
-            self.generation = generation;
+        let replaced = |slot: &Option<Shown>, texture: &Option<wgpu::Texture>| {
+            slot.as_ref().map(|s| &s.texture) != texture.as_ref()
+        };
+        if replaced(&self.main, &main) || replaced(&self.comparison, &comparison) {
             let mut renderer = render_state.renderer.write();
             for (slot, texture) in [(&mut self.main, main), (&mut self.comparison, comparison)] {
                 match texture {
@@ -289,9 +289,7 @@ impl Viewer {
                 }
             }
         }
-        if let Some((rgb, w, h, serial)) = flip
-            && self.flip.as_ref().is_none_or(|(_, s)| *s != serial)
-        {
+        if let Some((rgb, w, h, serial)) = flip {
             let image = egui::ColorImage::from_rgb([w as usize, h as usize], &rgb);
             let handle = ui.ctx().load_texture("flip map", image, egui::TextureOptions::LINEAR);
             self.flip = Some((handle, serial));
@@ -301,7 +299,7 @@ impl Viewer {
     /// The central image: the view, the comparison right of the split, or the FLIP map; camera input.
     fn image_area(&mut self, ui: &mut egui::Ui, status: &Status) {
         let area = ui.available_size();
-        if !self.fixed_size {
+        if !self.panel.fixed_size {
             let pixels = ui.ctx().pixels_per_point();
             let scale = self.panel.render_scale * pixels;
             let wanted = (((area.x * scale) as u32).max(16), ((area.y * scale) as u32).max(16));
@@ -434,7 +432,7 @@ impl Viewer {
 
 impl eframe::App for Viewer {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
-        let (status, _) = self.status();
+        let status = self.status();
         self.refresh_textures(frame, ui);
         let shot = match self.save_window_screenshot() {
             Ok(shot) => shot,

@@ -90,16 +90,14 @@ pub struct Status {
     pub passes: Vec<PassTime>,
     pub gpu_bytes: Option<u64>,
     pub process_bytes: Option<u64>,
-    pub comparison: Option<String>,
     /// Mean FLIP of the view against the comparison, and the comparison's sample count then.
     pub flip: Option<(f64, u32)>,
     pub done: bool,
 }
 
-/// The images the window shows: textures are replaced (new generation) when their size changes.
+/// The images the window shows (display textures are replaced when their size changes).
 #[derive(Default)]
 pub struct Images {
-    pub generation: u64,
     pub main: Option<wgpu::Texture>,
     pub comparison: Option<wgpu::Texture>,
     /// The FLIP error map (8-bit sRGB, width, height), replaced about once a second.
@@ -150,7 +148,11 @@ struct Worker {
     failed: bool,
     frames: u64,
     commands_done: u64,
-    generation: u64,
+    /// Every parameter of the technique, resolved (defaults included): recomputed when the technique
+    /// or its settings change, not per frame.
+    parameters: Vec<(String, String)>,
+    /// Whether the state since rendering stopped has been published (an idle thread publishes once).
+    idle_published: bool,
 }
 
 /// Runs the render thread until [`Command::Quit`] or until the window's sender is dropped.
@@ -184,8 +186,10 @@ pub fn run(start: Start, commands: Receiver<Command>, shared: Arc<Mutex<Shared>>
         failed: false,
         frames: 0,
         commands_done: 0,
-        generation: 0,
+        parameters: Vec::new(),
+        idle_published: false,
     };
+    worker.resolve_parameters();
     {
         let mut shared = worker.lock();
         shared.status.adapter = worker.ctx.summary.name.clone();
@@ -226,9 +230,15 @@ pub fn run(start: Start, commands: Receiver<Command>, shared: Arc<Mutex<Shared>>
             worker.publish(false);
             continue;
         }
-        if !worker.idle() {
-            worker.attempt("rendering", |w| w.frame());
+        if worker.idle() {
+            // Nothing rendered since the last publication but the step to idle: publish that once.
+            if !worker.idle_published {
+                worker.publish(true);
+            }
+            continue;
         }
+        let result = worker.frame();
+        worker.report("rendering", result);
         let stats_due = worker.last_stats.is_none_or(|t| t.elapsed() > Duration::from_millis(500));
         worker.publish(stats_due || worker.idle());
     }
@@ -255,27 +265,26 @@ impl Worker {
         self.failed || self.hold.is_some_and(|n| renderer.sample_index() >= n)
     }
 
-    /// Runs `f`, publishing `what` while it runs and its error if it fails (rendering then stops until
-    /// the next command).
+    /// Runs `f`, a rebuild: publishes `what` while it runs (the window shows it), clears the last error
+    /// when it succeeds and publishes its error when it fails.
     fn attempt(&mut self, what: &str, f: impl FnOnce(&mut Self) -> anyhow::Result<()>) {
-        if what != "rendering" {
-            self.lock().status.building = Some(what.to_string());
-            self.repaint.request_repaint();
-        }
+        self.lock().status.building = Some(what.to_string());
+        self.repaint.request_repaint();
         let result = f(self);
         let mut shared = self.lock();
         shared.status.building = None;
-        match result {
-            Ok(()) => {
-                if what != "rendering" {
-                    shared.status.error = None;
-                }
-            }
-            Err(e) => {
-                shared.status.error = Some(format!("{what}: {e:#}"));
-                drop(shared);
-                self.failed = true;
-            }
+        if result.is_ok() {
+            shared.status.error = None;
+        }
+        drop(shared);
+        self.report(what, result);
+    }
+
+    /// Publishes the error of `result`, if any; rendering then stops until the next command.
+    fn report(&mut self, what: &str, result: anyhow::Result<()>) {
+        if let Err(e) = result {
+            self.lock().status.error = Some(format!("{what}: {e:#}"));
+            self.failed = true;
         }
     }
 
@@ -296,6 +305,7 @@ impl Worker {
                     renderer.set_technique(&name, &settings)?;
                     w.technique = name.clone();
                     w.settings = settings.clone();
+                    w.resolve_parameters();
                     Ok(())
                 });
                 if self.failed {
@@ -309,6 +319,7 @@ impl Worker {
                     let renderer = w.renderer.as_mut().ok_or_else(|| anyhow::anyhow!("no scene loaded"))?;
                     renderer.set_parameters(&settings)?;
                     w.settings = settings.clone();
+                    w.resolve_parameters();
                     Ok(())
                 });
                 if self.failed {
@@ -348,7 +359,8 @@ impl Worker {
             Command::Exposure(ev) => {
                 self.exposure = ev;
                 // A held image is shown again at the new exposure.
-                self.attempt("showing", |w| w.show());
+                let result = self.show();
+                self.report("showing", result);
             }
             Command::Compare(technique) => {
                 self.comparison = None;
@@ -383,8 +395,15 @@ impl Worker {
         {
             self.technique = name;
             self.settings = settings;
+            self.resolve_parameters();
             // The error stays on screen; rendering goes on with the previous technique.
             self.failed = false;
+        }
+    }
+
+    fn resolve_parameters(&mut self) {
+        if let Ok((_, values)) = rtgi::techniques::resolve(&self.technique, &self.settings) {
+            self.parameters = values.to_map().into_iter().collect();
         }
     }
 
@@ -452,24 +471,15 @@ impl Worker {
     /// Tone-maps the latest frames into the display textures.
     fn show(&mut self) -> anyhow::Result<()> {
         let Some(renderer) = &self.renderer else { return Ok(()) };
-        let mut replaced = self.display.update(&self.ctx, renderer.output(), self.exposure)?;
+        self.display.update(&self.ctx, renderer.output(), self.exposure)?;
         if let Some(c) = &mut self.comparison {
-            replaced |= c.display.update(&self.ctx, c.renderer.output(), self.exposure)?;
+            c.display.update(&self.ctx, c.renderer.output(), self.exposure)?;
         }
         let main = self.display.texture().clone();
         let comparison = self.comparison.as_ref().map(|c| c.display.texture().clone());
-        let changed = replaced || {
-            let shared = self.lock();
-            shared.images.main.as_ref() != Some(&main) || shared.images.comparison != comparison
-        };
-        if changed {
-            self.generation += 1;
-            let mut shared = self.lock();
-            shared.images.generation = self.generation;
-            shared.images.main = Some(main);
-            shared.images.comparison = comparison;
-        }
-        self.repaint.request_repaint();
+        let mut shared = self.lock();
+        shared.images.main = Some(main);
+        shared.images.comparison = comparison;
         Ok(())
     }
 
@@ -492,6 +502,7 @@ impl Worker {
     /// every frame).
     fn publish(&mut self, stats: bool) {
         let idle = self.idle();
+        self.idle_published = idle && stats;
         let stats = if stats { self.renderer.as_mut().map(|r| r.stats()) } else { None };
         if stats.is_some() {
             self.last_stats = Some(Instant::now());
@@ -505,23 +516,19 @@ impl Worker {
                 Some(r.scene().animation_duration()),
             )
         });
-        let comparison_samples = self.comparison.as_ref().map(|c| c.renderer.sample_index());
         let mut shared = self.lock();
         let s = &mut shared.status;
         s.scene = self.scene_spec.clone();
         s.technique = self.technique.clone();
-        // Resolved here rather than taken from the (occasional) statistics, so a script's next `set`
-        // starts from the technique just switched to.
-        if let Ok((_, values)) = rtgi::techniques::resolve(&self.technique, &self.settings) {
-            s.parameters = values.to_map().into_iter().collect();
-        }
+        // Not from the (occasional) statistics, so a script's next `set` starts from the technique
+        // just switched to.
+        s.parameters = self.parameters.clone();
         s.exposure = self.exposure;
         s.time = self.time;
         s.frames = self.frames;
         s.commands_done = self.commands_done;
         s.idle = idle;
         s.scene_camera = self.camera.is_none();
-        s.comparison = self.comparison_technique.clone().filter(|_| comparison_samples.is_some());
         if let Some((samples, first_frame, size, camera, animation)) = renderer_state {
             s.samples = samples;
             s.first_frame = first_frame;

@@ -1,6 +1,6 @@
 //! The display image of a radiance texture: the PNG tone map of [`crate::image`] (exposure, ACES fit,
-//! sRGB) run on the GPU into an 8-bit texture holding the PNG's values, so a viewer can show every frame without reading the
-//! radiance back. The WGSL (`tone_map` of `shaders/common/color.wgsl`) is the twin of
+//! sRGB) run on the GPU into an 8-bit texture holding the PNG's values, so a viewer can show every
+//! frame without reading the radiance back. The WGSL (`tone_map` of `shaders/common/color.wgsl`) is the twin of
 //! [`crate::image::tone_map_pixel`]; a test holds them to one 8-bit step of each other.
 
 use super::dispatch::{compute_pass, compute_pipeline};
@@ -71,16 +71,15 @@ impl Display {
     }
 
     /// Tone-maps `radiance` (an rgba32float texture, e.g. [`crate::renderer::Renderer::output`]) into the
-    /// display texture with `exposure_ev` stops and submits the work. Returns whether the display texture
-    /// was replaced (its size followed the source's), so a caller holding views of it makes new ones.
+    /// display texture with `exposure_ev` stops and submits the work. The display texture follows the
+    /// source's size (a new texture then: a caller holding one compares it with [`Self::texture`]).
     pub fn update(
         &mut self,
         ctx: &GpuContext,
         radiance: &wgpu::Texture,
         exposure_ev: f32,
-    ) -> Result<bool, GpuError> {
-        let resized = self.texture.width() != radiance.width() || self.texture.height() != radiance.height();
-        if resized {
+    ) -> Result<(), GpuError> {
+        if self.texture.size() != radiance.size() {
             self.texture = display_texture(ctx, radiance.width(), radiance.height())?;
             self.bound = None;
         }
@@ -122,7 +121,7 @@ impl Display {
             1,
         );
         ctx.queue.submit([encoder.finish()]);
-        Ok(resized)
+        Ok(())
     }
 }
 
@@ -170,9 +169,13 @@ mod tests {
             source.size(),
         );
         let mut display = Display::new(&ctx).expect("display");
+        let mut shown: Option<wgpu::Texture> = None;
         for exposure_ev in [0.0f32, -1.5] {
-            let replaced = display.update(&ctx, &source, exposure_ev).expect("update");
-            assert_eq!(replaced, exposure_ev == 0.0, "replaced only when the size first changes");
+            display.update(&ctx, &source, exposure_ev).expect("update");
+            assert_eq!(display.texture().size(), source.size());
+            // Replaced only when the size first changes.
+            assert!(shown.as_ref().is_none_or(|t| t == display.texture()), "replaced at the same size");
+            shown = Some(display.texture().clone());
             let bytes = crate::gpu::readback::read_texture(&ctx, display.texture(), 4).expect("readback");
             let mut worst = 0;
             for (texel, rgba) in radiance.chunks(4).zip(bytes.chunks(4)) {
