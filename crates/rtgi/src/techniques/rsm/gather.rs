@@ -125,26 +125,12 @@ fn gather_pass(
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &bgl, &rsm.layout],
     )?;
     let target_view = target.create_view(&Default::default());
-    let mut resources = vec![
-        wgpu::BindingResource::TextureView(&target_view),
-        samples.as_entire_binding(),
-        chunks.resource(),
-    ];
-    resources.extend(surfaces.resources());
-    // Bindings 3–7 are unused: number the surface bindings by hand.
-    let entries: Vec<wgpu::BindGroupEntry> = resources
-        .into_iter()
-        .enumerate()
-        .map(|(i, resource)| wgpu::BindGroupEntry {
-            binding: if i < 3 { i as u32 } else { i as u32 + 5 },
-            resource,
-        })
-        .collect();
-    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("rsm gather"),
-        layout: &bgl,
-        entries: &entries,
-    });
+    let group = surfaces.bind_group(
+        ctx,
+        "rsm gather",
+        &bgl,
+        &[wgpu::BindingResource::TextureView(&target_view), samples.as_entire_binding(), chunks.resource()],
+    );
     Ok(GatherPass { pipeline, group, chunks, size: layout.size() })
 }
 

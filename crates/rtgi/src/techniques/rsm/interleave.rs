@@ -74,12 +74,17 @@ pub const ATLAS_WGSL: &str = include_str!("atlas.wgsl");
 /// WGSL of the surface bindings (2:8–11) in the atlas layout.
 pub const SURFACES_WGSL: &str = include_str!("surfaces.wgsl");
 
+/// The first binding of `surfaces.wgsl` in bind group 2 (its four textures take 8–11); a pass's own
+/// resources come before it.
+const SURFACE_BINDING: u32 = 8;
+
 /// Layout entries 8–11 of `surfaces.wgsl`, visible to `stages`.
 pub fn surface_entries(stages: wgpu::ShaderStages) -> Vec<wgpu::BindGroupLayoutEntry> {
     let float = wgpu::TextureSampleType::Float { filterable: false };
-    [(8, float), (9, float), (10, wgpu::TextureSampleType::Uint), (11, float)]
+    [float, float, wgpu::TextureSampleType::Uint, float]
         .into_iter()
-        .map(|(binding, sample_type)| wgpu::BindGroupLayoutEntry {
+        .zip(SURFACE_BINDING..)
+        .map(|(sample_type, binding)| wgpu::BindGroupLayoutEntry {
             visibility: stages,
             ..compute::texture_entry(binding, sample_type)
         })
@@ -149,9 +154,31 @@ impl SplitGBuffer {
         })
     }
 
-    /// Binding resources 8–11 of `surfaces.wgsl`.
-    pub fn resources(&self) -> [wgpu::BindingResource<'_>; 4] {
-        [&self.albedo, &self.normal, &self.material, &self.distance].map(wgpu::BindingResource::TextureView)
+    /// A bind group of `layout` (made with [`surface_entries`]): `own` at bindings 0.., these surfaces
+    /// at 8–11.
+    pub fn bind_group(
+        &self,
+        ctx: &GpuContext,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        own: &[wgpu::BindingResource],
+    ) -> wgpu::BindGroup {
+        let surfaces = [&self.albedo, &self.normal, &self.material, &self.distance]
+            .map(wgpu::BindingResource::TextureView)
+            .into_iter()
+            .zip(SURFACE_BINDING..);
+        let entries: Vec<wgpu::BindGroupEntry> = own
+            .iter()
+            .cloned()
+            .zip(0..)
+            .chain(surfaces)
+            .map(|(resource, binding)| wgpu::BindGroupEntry { binding, resource })
+            .collect();
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout,
+            entries: &entries,
+        })
     }
 
     /// Records the split (nothing without interleaving).

@@ -225,16 +225,7 @@ impl Splat {
         }];
         entries.extend(interleave::surface_entries(wgpu::ShaderStages::FRAGMENT));
         let splat_layout = compute::layout(ctx, "splat", &entries);
-        let mut resources =
-            vec![wgpu::BindGroupEntry { binding: 0, resource: vpl_buffer.as_entire_binding() }];
-        for (i, r) in split.resources().into_iter().enumerate() {
-            resources.push(wgpu::BindGroupEntry { binding: 8 + i as u32, resource: r });
-        }
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("splat"),
-            layout: &splat_layout,
-            entries: &resources,
-        });
+        let group = split.bind_group(ctx, "splat", &splat_layout, &[vpl_buffer.as_entire_binding()]);
         let module = shaders::create_module(ctx, "splat", &splat_source(), defines)?;
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("splat"),
@@ -323,28 +314,17 @@ impl Splat {
         ];
         entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
         let layout = compute::layout(ctx, "splat tiles", &entries);
-        let mut resources = vec![
-            vpl_buffer.as_entire_binding(),
-            rects.as_entire_binding(),
-            bins.as_entire_binding(),
-            wgpu::BindingResource::TextureView(atlas_view),
-        ];
-        let surfaces = split.resources();
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("splat tiles"),
-            layout: &layout,
-            entries: &resources
-                .drain(..)
-                .enumerate()
-                .map(|(i, resource)| wgpu::BindGroupEntry { binding: i as u32, resource })
-                .chain(
-                    surfaces
-                        .into_iter()
-                        .enumerate()
-                        .map(|(i, resource)| wgpu::BindGroupEntry { binding: 8 + i as u32, resource }),
-                )
-                .collect::<Vec<_>>(),
-        });
+        let group = split.bind_group(
+            ctx,
+            "splat tiles",
+            &layout,
+            &[
+                vpl_buffer.as_entire_binding(),
+                rects.as_entire_binding(),
+                bins.as_entire_binding(),
+                wgpu::BindingResource::TextureView(atlas_view),
+            ],
+        );
         let defines = defines.u32("VPL_COUNT", count).u32("BIN_WORDS", words).u32("TILES_X", tiles_x);
         let layouts =
             [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout, &rsm.layout];

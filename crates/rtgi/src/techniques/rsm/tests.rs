@@ -284,22 +284,8 @@ fn split_then_merge_reproduces_the_gbuffer_exactly() {
         let bgl = compute::layout(ctx, "merge gbuffer", &entries);
         let views: Vec<wgpu::TextureView> =
             outputs.iter().map(|t| t.create_view(&Default::default())).collect();
-        let mut resources: Vec<wgpu::BindGroupEntry> = views
-            .iter()
-            .enumerate()
-            .map(|(i, v)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: wgpu::BindingResource::TextureView(v),
-            })
-            .collect();
-        for (i, r) in split.resources().into_iter().enumerate() {
-            resources.push(wgpu::BindGroupEntry { binding: 8 + i as u32, resource: r });
-        }
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("merge gbuffer"),
-            layout: &bgl,
-            entries: &resources,
-        });
+        let own: Vec<wgpu::BindingResource> = views.iter().map(wgpu::BindingResource::TextureView).collect();
+        let group = split.bind_group(ctx, "merge gbuffer", &bgl, &own);
         let source = format!(
             "{}\n{}\n{}",
             interleave::ATLAS_WGSL,
@@ -399,25 +385,10 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
 
 #[test]
 fn every_vpl_reaches_exactly_one_sub_buffer() {
-    use crate::gpu::Profiler;
     use crate::gpu::readback::{read_buffer, read_texture};
-    let f = fixture("cornell-spot", 64, 48);
     let (n, m, count) = (4u32, 2u32, 64u32);
-    let settings: Vec<(String, String)> =
-        [("interleave", "4x2"), ("vpls", "64"), ("rescale", "false"), ("splat", "raster")]
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect();
-    let (_, params) = crate::techniques::resolve("sii", &settings).expect("params");
-    let setup = f.setup(&params);
-    let mut sii = splat::Splat::new(&setup, (n, m)).expect("sii");
-    let fc = FrameContext::still(&f.ctx, &f.gpu_scene, &f.frame);
-    crate::techniques::Technique::render_frame(
-        &mut sii,
-        &fc,
-        &mut Profiler::new(&f.ctx, crate::gpu::TimingMode::Passes),
-    )
-    .expect("frame");
+    let (f, sii) =
+        sii_frame(&[("interleave", "4x2"), ("vpls", "64"), ("rescale", "false"), ("splat", "raster")]);
     // Each VPL belongs to one sub-buffer, k mod N·M, so every sub-buffer gets count/(N·M).
     let bytes = read_buffer(&f.ctx, &sii.vpl_buffer, 0, u64::from(count) * 48).expect("vpls");
     let vpls: &[splat::GpuVpl] = bytemuck::cast_slice(&bytes);
@@ -439,9 +410,8 @@ fn every_vpl_reaches_exactly_one_sub_buffer() {
     assert!(reached.iter().all(|&r| r > 0.0), "{reached:?}");
 }
 
-/// The atlas of one `sii` frame with `settings` on cornell-spot at 64×48 (rgba, f32).
-fn sii_atlas(settings: &[(&str, &str)]) -> (Vec<f32>, wgpu::TextureFormat) {
-    use crate::gpu::Profiler;
+/// One `sii` frame with `settings` on cornell-spot at 64×48, and the fixture it ran on.
+fn sii_frame(settings: &[(&str, &str)]) -> (crate::techniques::fixture::Fixture, splat::Splat) {
     let f = fixture("cornell-spot", 64, 48);
     let settings: Vec<(String, String)> =
         settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
@@ -452,9 +422,15 @@ fn sii_atlas(settings: &[(&str, &str)]) -> (Vec<f32>, wgpu::TextureFormat) {
     crate::techniques::Technique::render_frame(
         &mut sii,
         &fc,
-        &mut Profiler::new(&f.ctx, crate::gpu::TimingMode::Passes),
+        &mut crate::gpu::Profiler::new(&f.ctx, crate::gpu::TimingMode::Passes),
     )
     .expect("frame");
+    (f, sii)
+}
+
+/// The atlas of one `sii` frame with `settings` on cornell-spot at 64×48 (rgba, f32).
+fn sii_atlas(settings: &[(&str, &str)]) -> (Vec<f32>, wgpu::TextureFormat) {
+    let (f, sii) = sii_frame(settings);
     let format = sii.atlas.format();
     let bytes =
         crate::gpu::readback::read_texture(&f.ctx, &sii.atlas, format.block_copy_size(None).expect("size"))
