@@ -4,6 +4,7 @@
 //! [`crate::image::tone_map_pixel`]; a test holds them to one 8-bit step of each other.
 
 use super::dispatch::{compute_pass, compute_pipeline};
+use super::resources::{storage_texture_layout_entry, texture_layout_entry};
 use super::{BufferBuilder, GpuContext, GpuError, TextureBuilder};
 use crate::shaders::Defines;
 
@@ -13,6 +14,8 @@ const KERNEL: &str = include_str!("display.wgsl");
 /// egui composites gamma-space textures (and WebGPU cannot write sRGB formats as storage).
 pub const DISPLAY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 const WORKGROUP: u32 = 8;
+/// The radiance is only loaded, and 32-bit floats need not be filterable.
+const UNFILTERABLE: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterable: false };
 
 /// A tone-mapped, 8-bit copy of a radiance texture, updated by [`Display::update`].
 pub struct Display {
@@ -31,26 +34,13 @@ impl Display {
         let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("display"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: DISPLAY_FORMAT,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
+                texture_layout_entry(0, UNFILTERABLE, wgpu::TextureViewDimension::D2),
+                storage_texture_layout_entry(
+                    1,
+                    DISPLAY_FORMAT,
+                    wgpu::StorageTextureAccess::WriteOnly,
+                    wgpu::TextureViewDimension::D2,
+                ),
                 super::resources::buffer_layout_entry(
                     2,
                     wgpu::ShaderStages::COMPUTE,

@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::sync::Mutex;
 
 use super::dispatch::{compute_pass, compute_pipeline};
+use super::resources::{storage_texture_layout_entry, texture_layout_entry};
 use super::{GpuContext, GpuError};
 use crate::shaders::Defines;
 
@@ -202,27 +203,18 @@ fn create_pipeline(
     let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(&name),
         entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                // Unfilterable: the kernel only loads, and 32-bit floats need not be filterable.
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: shape.view_dimension(),
-                    multisampled: false,
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::StorageTexture {
-                    access: wgpu::StorageTextureAccess::WriteOnly,
-                    format,
-                    view_dimension: shape.view_dimension(),
-                },
-                count: None,
-            },
+            // Unfilterable: the kernel only loads, and 32-bit floats need not be filterable.
+            texture_layout_entry(
+                0,
+                wgpu::TextureSampleType::Float { filterable: false },
+                shape.view_dimension(),
+            ),
+            storage_texture_layout_entry(
+                1,
+                format,
+                wgpu::StorageTextureAccess::WriteOnly,
+                shape.view_dimension(),
+            ),
         ],
     });
     let pipeline = compute_pipeline(ctx, &name, &source, &defines, &layout)?;

@@ -27,6 +27,35 @@ pub fn buffer_layout_entry(
     }
 }
 
+/// A compute-visible layout entry of a texture of `dimension` read with `textureLoad`.
+pub fn texture_layout_entry(
+    binding: u32,
+    sample_type: wgpu::TextureSampleType,
+    view_dimension: wgpu::TextureViewDimension,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture { sample_type, view_dimension, multisampled: false },
+        count: None,
+    }
+}
+
+/// A compute-visible layout entry of a storage texture of `dimension`.
+pub fn storage_texture_layout_entry(
+    binding: u32,
+    format: wgpu::TextureFormat,
+    access: wgpu::StorageTextureAccess,
+    view_dimension: wgpu::TextureViewDimension,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture { access, format, view_dimension },
+        count: None,
+    }
+}
+
 /// A texture request: 2-D, 2-D array (layers) or 3-D, with a mip chain, usages and an optional clear.
 #[derive(Clone, Debug)]
 pub struct TextureBuilder<'a> {

@@ -2,7 +2,7 @@
 //! 1 (frame) and 2 (the technique's own resources), and the textures and buffers those passes use.
 
 use crate::gpu::GpuContext;
-use crate::gpu::resources::buffer_layout_entry;
+use crate::gpu::resources::{buffer_layout_entry, storage_texture_layout_entry, texture_layout_entry};
 use crate::shaders::{self, Defines, ShaderError};
 
 /// Workgroup edge of screen-space compute passes (passed to WGSL as `TILE`).
@@ -39,30 +39,12 @@ pub fn storage_texture_entry(
     format: wgpu::TextureFormat,
     access: wgpu::StorageTextureAccess,
 ) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access,
-            format,
-            view_dimension: wgpu::TextureViewDimension::D2,
-        },
-        count: None,
-    }
+    storage_texture_layout_entry(binding, format, access, wgpu::TextureViewDimension::D2)
 }
 
 /// A bind-group layout entry for a sampled (read with `textureLoad`) 2D texture.
 pub fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type,
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
+    texture_layout_entry(binding, sample_type, wgpu::TextureViewDimension::D2)
 }
 
 /// A bind-group layout entry for a 3-D storage texture visible to compute shaders.
@@ -71,20 +53,12 @@ pub fn storage_texture_3d_entry(
     format: wgpu::TextureFormat,
     access: wgpu::StorageTextureAccess,
 ) -> wgpu::BindGroupLayoutEntry {
-    let mut entry = storage_texture_entry(binding, format, access);
-    if let wgpu::BindingType::StorageTexture { view_dimension, .. } = &mut entry.ty {
-        *view_dimension = wgpu::TextureViewDimension::D3;
-    }
-    entry
+    storage_texture_layout_entry(binding, format, access, wgpu::TextureViewDimension::D3)
 }
 
 /// A bind-group layout entry for a sampled 3-D texture.
 pub fn texture_3d_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu::BindGroupLayoutEntry {
-    let mut entry = texture_entry(binding, sample_type);
-    if let wgpu::BindingType::Texture { view_dimension, .. } = &mut entry.ty {
-        *view_dimension = wgpu::TextureViewDimension::D3;
-    }
-    entry
+    texture_layout_entry(binding, sample_type, wgpu::TextureViewDimension::D3)
 }
 
 /// A bind-group layout entry for a filtering sampler.
