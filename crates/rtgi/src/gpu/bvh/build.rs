@@ -8,17 +8,20 @@ use std::sync::Mutex;
 
 use glam::{Vec3, Vec3A};
 
-use super::{BVH_FLAG_ALPHA_TESTED, BVH_MAX_TRIANGLES, BVH_STACK_SIZE, Bvh, BvhNode, BvhTriangle};
+use super::wide::BinaryNode;
+use super::{
+    BVH_FLAG_ALPHA_TESTED, BVH_MAX_LEAF, BVH_MAX_TRIANGLES, BvhTriangle, MAX_BINARY_DEPTH, node_ref,
+};
 
 /// Bins per axis for large nodes; small nodes use fewer (see [`Binner::new`]).
 const BINS: usize = 32;
 const MIN_BINS: usize = 8;
-const MAX_LEAF: usize = 4;
+const MAX_LEAF: usize = BVH_MAX_LEAF as usize;
 /// SAH constants: a node visit (two box tests) costs about as much as a triangle test in `bvh.wgsl`.
 const COST_TRAVERSAL: f32 = 1.0;
 const COST_TRIANGLE: f32 = 1.0;
-/// The traversal stack bounds the tree depth (see [`median_height`]).
-pub(super) const MAX_DEPTH: u32 = BVH_STACK_SIZE;
+/// The traversal stack bounds the tree depth (see [`median_height`] and [`super::wide`]).
+pub(super) const MAX_DEPTH: u32 = MAX_BINARY_DEPTH;
 /// Nodes at this depth with at least `PARALLEL_MIN` triangles become independent subtree builds.
 const PARALLEL_DEPTH: u32 = 4;
 const PARALLEL_MIN: usize = 16 * 1024;
@@ -261,21 +264,30 @@ fn split(prims: &mut [Prim], task: &Task, plan: &Plan) -> (usize, [Bounds; 2], [
 }
 
 struct Subtree {
-    /// Root at index 0; internal nodes' `left_first` index this vector.
-    nodes: Vec<BvhNode>,
+    /// Root at index 0; internal nodes' `link` index this vector.
+    nodes: Vec<BinaryNode>,
     /// Tasks left for a parallel pass (`start`/`end` global), whose slots are placeholders.
     deferred: Vec<Task>,
     max_depth: u32,
 }
 
-fn node(bounds: &Bounds, left_first: u32, count: u32) -> BvhNode {
-    BvhNode { aabb_min: bounds.min.into(), aabb_max: bounds.max.into(), left_first, count }
+fn inner(bounds: &Bounds, left: u32) -> BinaryNode {
+    BinaryNode { aabb_min: bounds.min.into(), aabb_max: bounds.max.into(), link: left, leaf: false }
+}
+
+fn leaf(bounds: &Bounds, first: u32, count: u32) -> BinaryNode {
+    BinaryNode {
+        aabb_min: bounds.min.into(),
+        aabb_max: bounds.max.into(),
+        link: node_ref(first, count),
+        leaf: true,
+    }
 }
 
 /// Builds the subtree of `root` over `prims` (which start at global prim index `offset`), depth first
 /// so that subtrees are contiguous in memory.
 fn build_subtree(prims: &mut [Prim], offset: usize, root: Task, defer: bool) -> Subtree {
-    let mut out = Subtree { nodes: vec![node(&root.bounds, 0, 0)], deferred: Vec::new(), max_depth: 0 };
+    let mut out = Subtree { nodes: vec![inner(&root.bounds, 0)], deferred: Vec::new(), max_depth: 0 };
     let mut stack = vec![Task { slot: 0, start: 0, end: prims.len(), ..root }];
     while let Some(task) = stack.pop() {
         let range = &mut prims[task.start..task.end];
@@ -287,14 +299,14 @@ fn build_subtree(prims: &mut [Prim], offset: usize, root: Task, defer: bool) -> 
         out.max_depth = out.max_depth.max(task.depth);
         let plan = plan(range, &task);
         if let Plan::Leaf = plan {
-            out.nodes[task.slot as usize] = node(&task.bounds, (offset + task.start) as u32, count as u32);
+            out.nodes[task.slot as usize] = leaf(&task.bounds, (offset + task.start) as u32, count as u32);
             continue;
         }
         let (mid, bounds, centroids) = split(range, &task, &plan);
         debug_assert!(mid > 0 && mid < count, "a split must leave triangles on both sides");
         let left = out.nodes.len() as u32;
-        out.nodes[task.slot as usize] = node(&task.bounds, left, 0);
-        out.nodes.extend([node(&bounds[0], 0, 0), node(&bounds[1], 0, 0)]);
+        out.nodes[task.slot as usize] = inner(&task.bounds, left);
+        out.nodes.extend([inner(&bounds[0], 0), inner(&bounds[1], 0)]);
         let child = |slot, start, end, side: usize| Task {
             slot,
             start,
@@ -336,18 +348,23 @@ pub(super) fn least_depth(count: usize) -> u32 {
     median_height(count)
 }
 
-/// Builds the BVH with no leaf deeper than `depth_limit` (at least [`least_depth`] of the count;
-/// [`MAX_DEPTH`] for a standalone tree, less for one grafted below a top level).
-pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>, depth_limit: u32) -> Bvh {
+/// The binary SAH tree, which [`super::wide`] collapses into the BVH the GPU traverses.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct BinaryBvh {
+    /// Root at index 0; leaves' links are node references of triangle ranges in `triangles`.
+    pub nodes: Vec<BinaryNode>,
+    pub triangles: Vec<BvhTriangle>,
+    /// Depth of the deepest leaf (the root has depth 0).
+    pub max_depth: u32,
+}
+
+/// Builds the binary tree with no leaf deeper than `depth_limit` (at least [`least_depth`] of the
+/// count; [`MAX_DEPTH`] for a standalone tree, less for one grafted below a top level).
+pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>, depth_limit: u32) -> BinaryBvh {
     let n = triangles.len();
     if n == 0 {
         let zero = Bounds { min: Vec3A::ZERO, max: Vec3A::ZERO };
-        return Bvh {
-            nodes: vec![node(&zero, 0, 1)],
-            triangles: vec![EMPTY_TRIANGLE],
-            instances: Vec::new(),
-            max_depth: 0,
-        };
+        return BinaryBvh { nodes: vec![leaf(&zero, 0, 1)], triangles: vec![EMPTY_TRIANGLE], max_depth: 0 };
     }
     debug_assert!(n <= BVH_MAX_TRIANGLES && median_height(n) <= depth_limit && depth_limit <= MAX_DEPTH);
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(16);
@@ -430,9 +447,9 @@ pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>, dept
         let Some(sub) = sub else { unreachable!("every deferred subtree is built") };
         max_depth = max_depth.max(sub.max_depth);
         let base = nodes.len() as u32;
-        let remap = |mut n: BvhNode| {
-            if !n.is_leaf() {
-                n.left_first = base + n.left_first - 1;
+        let remap = |mut n: BinaryNode| {
+            if !n.leaf {
+                n.link = base + n.link - 1;
             }
             n
         };
@@ -453,5 +470,5 @@ pub(super) fn build(triangles: &[[Vec3; 3]], alpha_tested: Option<&[bool]>, dept
             .collect::<Vec<_>>()
     });
     let triangles = packed.concat();
-    Bvh { nodes, triangles, instances: Vec::new(), max_depth }
+    BinaryBvh { nodes, triangles, max_depth }
 }

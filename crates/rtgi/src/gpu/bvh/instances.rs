@@ -5,25 +5,27 @@
 //! Static meshes share one bottom level rather than one each: their boxes overlap (a room's walls
 //! and the furniture in it), and a shared SAH tree separates them far better than a top level over
 //! per-mesh boxes, so a scene that does not move traces exactly as fast as with a single-level BVH.
-//! The static tree is grafted into the top level by copying its root node, so no transform is
-//! applied to it.
+//! The top level refers to the static tree's root as a child node, so no transform is applied to it.
 //!
-//! Layout of the flattened [`Bvh`] (what `bvh.wgsl` reads): the top level in nodes
-//! `[0, 2L − 1)` for L top-level leaves (balanced, so its depth is ⌈log₂ L⌉ and the bottom levels
-//! are built with the rest of the traversal stack), then the bottom levels; triangles of all bottom
-//! levels, then one degenerate triangle that a top level with no live leaf points at; the instances.
+//! Layout of the flattened [`Bvh`] (what `bvh.wgsl` reads): the top level in the first
+//! max(1, L − 1) nodes for L top-level leaves (the most a wide tree over L leaves needs; unused
+//! ones are empty), then the bottom levels; triangles of all bottom levels, then one degenerate
+//! triangle so that the buffer is never empty; the instances. The top level is collapsed from a
+//! balanced binary tree, so its binary depth is ⌈log₂ L⌉ and the bottom levels are built with the
+//! rest of the depth budget (which bounds the traversal stack, see [`super::wide`]).
 
 use glam::{Mat4, Vec3};
 
 use super::build::{self, EMPTY_TRIANGLE, MAX_DEPTH};
-use super::{BVH_INSTANCE_LEAF, Bvh, BvhInstance, BvhNode, SceneTriangles};
+use super::wide::{self, BinaryNode};
+use super::{BVH_INSTANCE_LEAF, Bvh, BvhInstance, BvhNode, SceneTriangles, node_ref};
 use crate::gpu::GpuError;
 
 /// A top-level leaf.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum TopLeaf {
-    /// The static bottom level, rebased: grafted as it is.
-    Static(BvhNode),
+    /// The static bottom level: its root node and box.
+    Static { root: u32, min: Vec3, max: Vec3 },
     /// Instance `index`, with the box of its bottom level in its own space.
     Instance { index: u32, min: Vec3, max: Vec3 },
 }
@@ -37,18 +39,16 @@ pub struct InstancedBvh {
     pub top: TopLevel,
 }
 
-/// The top level of an [`InstancedBvh`] with what rebuilding it needs: small (two nodes and an
+/// The top level of an [`InstancedBvh`] with what rebuilding it needs: small (at most a node and an
 /// instance per moving mesh), unlike the bottom levels.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TopLevel {
     /// Per instance, the mesh it holds.
     pub instance_meshes: Vec<usize>,
-    /// The nodes `[0, 2L − 1)` of the flattened tree.
+    /// The first nodes of the flattened tree (see the module documentation).
     pub nodes: Vec<BvhNode>,
     pub instances: Vec<BvhInstance>,
     leaves: Vec<TopLeaf>,
-    /// The degenerate triangle a top level with no live leaf points at.
-    empty_triangle: u32,
 }
 
 impl InstancedBvh {
@@ -67,8 +67,8 @@ impl InstancedBvh {
         let top_depth = leaf_count.max(1).next_power_of_two().trailing_zeros();
         let depth_limit = MAX_DEPTH - top_depth.min(MAX_DEPTH);
 
-        // Each bottom level as (BVH, global index of its local triangle 0 or the id table).
-        let build_part = |ids: &[u32]| -> Result<Bvh, GpuError> {
+        // Each bottom level's binary tree, triangle indices global.
+        let build_part = |ids: &[u32]| -> Result<build::BinaryBvh, GpuError> {
             if build::least_depth(ids.len()) > depth_limit {
                 return Err(GpuError::OverLimit(format!(
                     "a part of the scene with {} triangles needs a BVH deeper than the {depth_limit} levels \
@@ -85,38 +85,29 @@ impl InstancedBvh {
             Ok(part)
         };
 
-        let top_nodes = 2 * leaf_count.max(1) - 1;
-        let mut nodes =
-            vec![BvhNode { aabb_min: [0.0; 3], left_first: 0, aabb_max: [0.0; 3], count: 0 }; top_nodes];
+        let top_nodes = leaf_count.saturating_sub(1).max(1);
+        let mut nodes = vec![BvhNode::EMPTY; top_nodes];
         let mut triangles = Vec::new();
         let mut leaves = Vec::with_capacity(leaf_count);
         let mut instances = Vec::with_capacity(instance_meshes.len());
         let mut bottom_depth = 0;
-        let mut append = |part: Bvh, nodes: &mut Vec<BvhNode>| -> BvhNode {
-            let (node_base, tri_base) = (nodes.len() as u32, triangles.len() as u32);
+        // Appends a bottom level; returns its root node and box.
+        let mut append = |part: build::BinaryBvh, nodes: &mut Vec<BvhNode>| -> (u32, Vec3, Vec3) {
+            let root = nodes.len() as u32;
             bottom_depth = bottom_depth.max(part.max_depth);
-            let rebase = |mut n: BvhNode| {
-                n.left_first += if n.is_leaf() { tri_base } else { node_base };
-                n
-            };
-            nodes.extend(part.nodes.iter().map(|&n| rebase(n)));
+            wide::collapse(&part.nodes, nodes, triangles.len() as u32);
             triangles.extend_from_slice(&part.triangles);
-            rebase(part.nodes[0])
+            (root, Vec3::from(part.nodes[0].aabb_min), Vec3::from(part.nodes[0].aabb_max))
         };
         if !static_ids.is_empty() {
-            let root = append(build_part(&static_ids)?, &mut nodes);
-            leaves.push(TopLeaf::Static(root));
+            let (root, min, max) = append(build_part(&static_ids)?, &mut nodes);
+            leaves.push(TopLeaf::Static { root, min, max });
         }
         for (index, &m) in instance_meshes.iter().enumerate() {
             let ids: Vec<u32> = range(m).map(|i| i as u32).collect();
-            let root_index = nodes.len() as u32;
-            let root = append(build_part(&ids)?, &mut nodes);
-            instances.push(BvhInstance { world_to_object: IDENTITY_ROWS, root: root_index, pad: [0; 3] });
-            leaves.push(TopLeaf::Instance {
-                index: index as u32,
-                min: Vec3::from(root.aabb_min),
-                max: Vec3::from(root.aabb_max),
-            });
+            let (root, min, max) = append(build_part(&ids)?, &mut nodes);
+            instances.push(BvhInstance { world_to_object: IDENTITY_ROWS, root, pad: [0; 3] });
+            leaves.push(TopLeaf::Instance { index: index as u32, min, max });
         }
         triangles.push(EMPTY_TRIANGLE);
         let top = TopLevel {
@@ -124,7 +115,6 @@ impl InstancedBvh {
             instances: instances.clone(),
             instance_meshes,
             leaves,
-            empty_triangle: (triangles.len() - 1) as u32,
         };
         let mut out = InstancedBvh {
             bvh: Bvh { nodes, triangles, instances, max_depth: top_depth + bottom_depth },
@@ -152,10 +142,10 @@ impl TopLevel {
     /// over to where it is now) and rebuilds the top level. An instance whose map cannot be inverted
     /// (scaled to nothing) is left out: nothing can hit it.
     pub fn place(&mut self, object_to_world: &[Mat4]) {
-        let mut live: Vec<(BvhNode, Vec3)> = Vec::with_capacity(self.leaves.len());
+        let mut live: Vec<(BinaryNode, Vec3)> = Vec::with_capacity(self.leaves.len());
         for leaf in &self.leaves {
-            let node = match *leaf {
-                TopLeaf::Static(root) => root,
+            let (link, min, max) = match *leaf {
+                TopLeaf::Static { root, min, max } => (node_ref(root, 0), min, max),
                 TopLeaf::Instance { index, min, max } => {
                     let m = object_to_world.get(index as usize).copied().unwrap_or(Mat4::IDENTITY);
                     let inverse = m.inverse();
@@ -174,24 +164,22 @@ impl TopLevel {
                         lo = lo.min(w);
                         hi = hi.max(w);
                     }
-                    BvhNode {
-                        aabb_min: lo.into(),
-                        left_first: index,
-                        aabb_max: hi.into(),
-                        count: BVH_INSTANCE_LEAF,
-                    }
+                    (node_ref(index, BVH_INSTANCE_LEAF), lo, hi)
                 }
             };
-            let centre = (Vec3::from(node.aabb_min) + Vec3::from(node.aabb_max)) * 0.5;
-            live.push((node, centre));
+            let node = BinaryNode { aabb_min: min.into(), aabb_max: max.into(), link, leaf: true };
+            live.push((node, (min + max) * 0.5));
         }
-        if live.is_empty() {
-            // Every instance is scaled to nothing: a leaf on the degenerate triangle, which never hits.
-            let empty = self.empty_triangle;
-            self.nodes[0] = BvhNode { aabb_min: [0.0; 3], left_first: empty, aabb_max: [0.0; 3], count: 1 };
-            return;
+        self.nodes.fill(BvhNode::EMPTY);
+        // Every instance scaled to nothing leaves a root without children, which nothing hits.
+        if !live.is_empty() {
+            let mut binary = vec![live[0].0; 2 * live.len() - 1];
+            build_top_level(&mut live, &mut binary);
+            let mut top = Vec::with_capacity(self.nodes.len());
+            wide::collapse(&binary, &mut top, 0);
+            debug_assert!(top.len() <= self.nodes.len(), "a wide tree over L leaves has at most L - 1 nodes");
+            self.nodes[..top.len()].copy_from_slice(&top);
         }
-        build_top_level(&mut live, &mut self.nodes);
     }
 }
 
@@ -200,7 +188,7 @@ const IDENTITY_ROWS: [[f32; 4]; 3] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]
 /// A balanced tree over `leaves` into `top` (root at 0, children in adjacent pairs): each node splits
 /// its leaves in half by centre along the axis where the centres spread most. With few leaves this is
 /// about as good as SAH, and it bounds the depth at ⌈log₂ L⌉, which the bottom levels were built for.
-fn build_top_level(leaves: &mut [(BvhNode, Vec3)], top: &mut [BvhNode]) {
+fn build_top_level(leaves: &mut [(BinaryNode, Vec3)], top: &mut [BinaryNode]) {
     let mut next = 1;
     let mut stack = vec![(0usize, 0usize, leaves.len())];
     while let Some((slot, start, end)) = stack.pop() {
@@ -230,7 +218,7 @@ fn build_top_level(leaves: &mut [(BvhNode, Vec3)], top: &mut [BvhNode]) {
         let mid = part.len().div_ceil(2);
         let left = next;
         next += 2;
-        top[slot] = BvhNode { aabb_min: lo.into(), left_first: left as u32, aabb_max: hi.into(), count: 0 };
+        top[slot] = BinaryNode { aabb_min: lo.into(), aabb_max: hi.into(), link: left as u32, leaf: false };
         stack.push((left + 1, start + mid, end));
         stack.push((left, start, start + mid));
     }

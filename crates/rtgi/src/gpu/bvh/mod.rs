@@ -8,22 +8,21 @@
 //!   checks both.
 //! - [`GpuBvh`]: the two storage buffers `bvh.wgsl` reads (`bvh_nodes`, `bvh_tris`).
 //!
-//! GPU layout (both `#[repr(C)]`, matching WGSL's storage layout):
-//! - [`BvhNode`], 32 bytes: `aabb_min, left_first, aabb_max, count`. `count > 0`: a leaf holding
-//!   triangles `[left_first, left_first + count)` in BVH order; `count == 0`: an internal node whose
-//!   children are `left_first` and `left_first + 1`. Siblings are adjacent so one index addresses both
-//!   and the traversal fetches both boxes from one 64-byte line. The root is node 0. An empty input
-//!   gives a single leaf holding one degenerate triangle, which never hits, so shaders need no
-//!   special case (and no buffer is zero-sized).
+//! GPU layout (all `#[repr(C)]`, matching WGSL's storage layout):
+//! - [`BvhNode`], 64 bytes: a node of the 4-wide BVH (see [`wide`] for how the binary SAH tree is
+//!   collapsed into it and why): the references of up to four children and their boxes, quantised to
+//!   bytes on a power-of-two grid. A child reference is `(first << 3) | count` ([`node_ref`]):
+//!   `count == 0` is node `first`; `1..=4` the triangles `[first, first + count)` in BVH order;
+//!   [`BVH_INSTANCE_LEAF`] instance `first`; [`BVH_EMPTY_CHILD`] an empty slot. The root is node 0.
+//!   An empty input gives a root with one leaf holding one degenerate triangle, which never hits, so
+//!   shaders need no special case (and no buffer is zero-sized).
 //! - [`BvhTriangle`], 48 bytes (3 × `vec4f`): vertices in BVH order; the `w` lanes carry the original
 //!   triangle index (v0), flags (v1, bit 0 = alpha-tested) and padding (v2). Keeping the vertices here
 //!   instead of indexing the scene's vertex buffer saves a dependent load per triangle test.
-//!
 //! - [`BvhInstance`], 64 bytes: the world-to-object rows of a rigid instance and the node index of its
-//!   bottom-level root. A leaf with `count == BVH_INSTANCE_LEAF` is instance `left_first`: the
-//!   traversal moves the ray into the instance's space and descends into its bottom level. Only
-//!   [`InstancedBvh`] makes such leaves (a two-level BVH, for scenes with moving rigid meshes); a plain
-//!   [`Bvh::build`] has none.
+//!   bottom-level root. A child referenced as instance `i` moves the ray into the instance's space
+//!   and the traversal descends into its bottom level. Only [`InstancedBvh`] makes such references (a
+//!   two-level BVH, for scenes with moving rigid meshes); a plain [`Bvh::build`] has none.
 //!
 //! Triangle indices are global: the position in the flat list given to [`Bvh::build`], which for a
 //! scene is [`SceneTriangles`] (meshes concatenated in order, as the GPU scene upload does).
@@ -31,6 +30,7 @@
 mod build;
 mod instances;
 mod traverse;
+pub mod wide;
 
 #[cfg(test)]
 pub(crate) mod gpu_tests;
@@ -48,44 +48,75 @@ use crate::scene::{AlphaMode, Scene};
 
 pub use instances::{InstancedBvh, TopLevel};
 pub use traverse::{intersect_brute_force, occluded_brute_force};
+pub use wide::BVH_WIDTH;
 
-/// Entries of the traversal stack in `bvh.wgsl` (and the CPU traversal). The builder keeps the tree
-/// depth at or below this, which bounds the stack: at most one deferred sibling per level. SAH trees
-/// of millions of triangles are 25–30 deep; a smaller stack is less private memory per GPU thread.
-pub const BVH_STACK_SIZE: u32 = 32;
+/// Deepest leaf of the binary SAH tree (the root has depth 0). SAH trees of millions of triangles
+/// are 25–30 deep; the builder keeps every tree within this, which bounds the traversal stack.
+pub const MAX_BINARY_DEPTH: u32 = 32;
 
-/// Most triangles a BVH can hold: node references in `bvh.wgsl` pack `left_first` into 29 bits, and
-/// a BVH has fewer than 2n nodes. (Far beyond what fits a storage buffer binding anyway.)
+/// Entries of the traversal stack in `bvh.wgsl` (and the CPU traversal): a visit of a wide node
+/// defers at most twice as many children as the binary levels it spans (see [`wide`]).
+pub const BVH_STACK_SIZE: u32 = 2 * MAX_BINARY_DEPTH;
+
+/// Most triangles a BVH can hold: node references in `bvh.wgsl` pack `first` into 29 bits. (Far
+/// beyond what fits a storage buffer binding anyway.)
 pub const BVH_MAX_TRIANGLES: usize = 1 << 28;
+
+/// Most triangles of a leaf.
+pub const BVH_MAX_LEAF: u32 = 4;
+
+/// The reference of an empty child slot of a [`BvhNode`].
+pub const BVH_EMPTY_CHILD: u32 = u32::MAX;
 
 /// Flag bit of [`BvhTriangle::flags`]: the triangle's material is alpha-masked, so a hit on it is
 /// confirmed by the includer's `bvh_alpha_test`.
 pub const BVH_FLAG_ALPHA_TESTED: u32 = 1;
 
-/// `count` of a top-level leaf that is an instance (see [`BvhInstance`]); triangle leaves hold at most
-/// 4 triangles, and a node reference in `bvh.wgsl` keeps `count` in 3 bits.
+/// `count` of a child reference to an instance (see [`BvhInstance`]); triangle leaves hold at most
+/// [`BVH_MAX_LEAF`] triangles, and a reference keeps `count` in 3 bits.
 pub const BVH_INSTANCE_LEAF: u32 = 7;
 
-/// A BVH node as the GPU reads it (see the module documentation).
+/// The child reference `(first << 3) | count` (see the module documentation).
+pub const fn node_ref(first: u32, count: u32) -> u32 {
+    (first << 3) | count
+}
+
+/// What a child reference of a [`BvhNode`] points at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Child {
+    Node(u32),
+    Triangles { first: u32, count: u32 },
+    Instance(u32),
+}
+
+impl Child {
+    /// Decodes a reference made by [`node_ref`] (not [`BVH_EMPTY_CHILD`]).
+    pub fn of(reference: u32) -> Child {
+        let (first, count) = (reference >> 3, reference & 7);
+        match count {
+            0 => Child::Node(first),
+            BVH_INSTANCE_LEAF => Child::Instance(first),
+            _ => Child::Triangles { first, count },
+        }
+    }
+}
+
+/// A node of the 4-wide BVH as the GPU reads it (see the module documentation and [`wide`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct BvhNode {
-    pub aabb_min: [f32; 3],
-    pub left_first: u32,
-    pub aabb_max: [f32; 3],
-    pub count: u32,
-}
-
-impl BvhNode {
-    /// A leaf: of triangles, or an instance ([`BvhNode::is_instance`]).
-    pub fn is_leaf(&self) -> bool {
-        self.count > 0
-    }
-
-    /// A top-level leaf standing for instance `left_first`.
-    pub fn is_instance(&self) -> bool {
-        self.count == BVH_INSTANCE_LEAF
-    }
+    /// Corner of the grid the children's boxes are quantised on.
+    pub origin: [f32; 3],
+    /// Byte a (a = x, y, z): the biased exponent of the grid's cell size along axis a, 2^(byte − 127).
+    pub exponents: u32,
+    /// Child references ([`node_ref`]), [`BVH_EMPTY_CHILD`] for empty slots.
+    pub children: [u32; BVH_WIDTH],
+    /// Per axis, byte j: child j's box starts this many cells from the origin ...
+    pub lo: [u32; 3],
+    pub spare: u32,
+    /// ... and ends this many cells from it.
+    pub hi: [u32; 3],
+    pub pad: u32,
 }
 
 /// A rigid instance as the GPU reads it (see the module documentation).
@@ -227,9 +258,10 @@ impl SceneTriangles {
 pub struct Bvh {
     pub nodes: Vec<BvhNode>,
     pub triangles: Vec<BvhTriangle>,
-    /// The instances its top-level leaves refer to (empty for a single-level BVH).
+    /// The instances its top level refers to (empty for a single-level BVH).
     pub instances: Vec<BvhInstance>,
-    /// Depth of the deepest leaf (the root has depth 0); at most [`BVH_STACK_SIZE`].
+    /// Depth of the deepest leaf of the binary tree it was collapsed from (through the top level and
+    /// a bottom level for a two-level BVH); at most [`MAX_BINARY_DEPTH`].
     pub max_depth: u32,
 }
 
@@ -244,7 +276,14 @@ impl Bvh {
                 triangles.len()
             )));
         }
-        Ok(build::build(triangles, alpha_tested, build::MAX_DEPTH))
+        Ok(Bvh::collapsed(build::build(triangles, alpha_tested, MAX_BINARY_DEPTH)))
+    }
+
+    /// The wide BVH of a binary one.
+    fn collapsed(binary: build::BinaryBvh) -> Bvh {
+        let mut nodes = Vec::with_capacity(binary.nodes.len() / 3 + 1);
+        wide::collapse(&binary.nodes, &mut nodes, 0);
+        Bvh { nodes, triangles: binary.triangles, instances: Vec::new(), max_depth: binary.max_depth }
     }
 
     /// Builds the BVH of a (valid) scene, triangle indices as in [`SceneTriangles::from_scene`].
@@ -255,7 +294,7 @@ impl Bvh {
 
     /// Number of real triangles (an empty BVH holds one degenerate placeholder that never hits).
     pub fn triangle_count(&self) -> usize {
-        if self.nodes.len() == 1 && self.triangles.len() == 1 && self.triangles[0] == build::EMPTY_TRIANGLE {
+        if self.triangles.len() == 1 && self.triangles[0] == build::EMPTY_TRIANGLE {
             0
         } else {
             self.triangles.len()
@@ -264,7 +303,11 @@ impl Bvh {
 
     /// Leaves holding triangles.
     pub fn leaf_count(&self) -> usize {
-        self.nodes.iter().filter(|n| n.is_leaf() && !n.is_instance()).count()
+        self.nodes
+            .iter()
+            .flat_map(BvhNode::children)
+            .filter(|(c, _, _)| matches!(Child::of(*c), Child::Triangles { .. }))
+            .count()
     }
 
     /// Bytes of the GPU buffers.
@@ -274,22 +317,33 @@ impl Bvh {
             + std::mem::size_of_val(self.instances.as_slice())) as u64
     }
 
-    /// SAH cost of the tree (traversal steps 1, triangle tests 1, relative to the root's area): a
-    /// quality figure for comparing builds, lower is better.
+    /// SAH cost of the tree as traversed (tested boxes: a node visit and a triangle test cost 1 each,
+    /// relative to the root's area): a quality figure for comparing builds, lower is better.
     pub fn sah_cost(&self) -> f64 {
-        let half_area = |n: &BvhNode| {
-            let e = (Vec3::from(n.aabb_max) - Vec3::from(n.aabb_min)).as_dvec3();
-            (e.x * e.y + e.y * e.z + e.z * e.x).max(0.0)
+        let half_area = |lo: Vec3, hi: Vec3| {
+            let e = (hi - lo).max(Vec3::ZERO).as_dvec3();
+            e.x * e.y + e.y * e.z + e.z * e.x
         };
-        let root = half_area(&self.nodes[0]);
-        if root <= 0.0 {
+        let bounds = |n: &BvhNode| {
+            n.children()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (_, lo, hi)| (a.min(lo), b.max(hi)))
+        };
+        let (lo, hi) = bounds(&self.nodes[0]);
+        let root = half_area(lo, hi);
+        if root <= 0.0 || root.is_nan() {
             return 0.0;
         }
-        self.nodes
-            .iter()
-            .map(|n| half_area(n) * if n.is_leaf() && !n.is_instance() { f64::from(n.count) } else { 1.0 })
-            .sum::<f64>()
-            / root
+        let mut cost = 0.0;
+        for node in &self.nodes {
+            for (c, lo, hi) in node.children() {
+                let weight = match Child::of(c) {
+                    Child::Triangles { count, .. } => f64::from(count),
+                    _ => 1.0,
+                };
+                cost += half_area(lo, hi) * weight;
+            }
+        }
+        1.0 + cost / root
     }
 }
 

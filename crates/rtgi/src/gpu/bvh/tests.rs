@@ -8,48 +8,124 @@ use super::test_geometry::{self as geo, RayKind, Rng};
 use super::traverse::{self, Arithmetic, Fused};
 use super::*;
 
-/// Checks the structural invariants the GPU traversal relies on; panics with a description.
-pub(crate) fn check_invariants(bvh: &Bvh, triangles: &[[Vec3; 3]]) {
-    let n = triangles.len();
-    assert_eq!(bvh.triangles.len(), n.max(1));
-    assert!(bvh.max_depth <= BVH_STACK_SIZE, "depth {} over the traversal stack", bvh.max_depth);
-    let mut seen = vec![0u32; n];
-    let mut reached = vec![false; bvh.nodes.len()];
-    let mut stack = vec![(0usize, 0u32)];
-    let mut deepest = 0;
-    reached[0] = true;
-    while let Some((i, depth)) = stack.pop() {
-        let node = &bvh.nodes[i];
-        deepest = deepest.max(depth);
-        let (lo, hi) = (Vec3::from(node.aabb_min), Vec3::from(node.aabb_max));
-        let contains = |p: Vec3| p.cmpge(lo).all() && p.cmple(hi).all();
-        if node.is_leaf() {
-            assert!(node.count as usize <= 4, "leaf {i} holds {} triangles", node.count);
-            for tri in &bvh.triangles[node.left_first as usize..(node.left_first + node.count) as usize] {
-                if n == 0 {
-                    continue;
-                }
-                seen[tri.index as usize] += 1;
-                assert_eq!(tri.vertices(), triangles[tri.index as usize], "triangle {} moved", tri.index);
-                assert!(tri.vertices().into_iter().all(contains), "leaf {i} does not contain {}", tri.index);
-                assert_eq!(tri.flags & !BVH_FLAG_ALPHA_TESTED, 0);
+/// Cell size of `node`'s quantisation grid along `axis`.
+fn cell(node: &BvhNode, axis: usize) -> f32 {
+    f32::from_bits(((node.exponents >> (8 * axis)) & 0xff) << 23)
+}
+
+/// Whether the box `lo..=hi` contains `p`.
+fn contains(lo: Vec3, hi: Vec3, p: Vec3) -> bool {
+    p.cmpge(lo).all() && p.cmple(hi).all()
+}
+
+/// Per node, the exact bounds of the geometry under it (instances left out: they are in their own
+/// space). Children come after their parents in the node array, so one reverse sweep suffices.
+fn exact_bounds(bvh: &Bvh) -> Vec<(Vec3, Vec3)> {
+    let mut out = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); bvh.nodes.len()];
+    for i in (0..bvh.nodes.len()).rev() {
+        for (c, _, _) in bvh.nodes[i].children() {
+            let (lo, hi) = child_bounds(bvh, &out, c);
+            out[i] = (out[i].0.min(lo), out[i].1.max(hi));
+        }
+    }
+    out
+}
+
+/// The exact bounds of what child reference `c` holds, given those of the nodes after it.
+fn child_bounds(bvh: &Bvh, nodes: &[(Vec3, Vec3)], c: u32) -> (Vec3, Vec3) {
+    match Child::of(c) {
+        Child::Node(j) => nodes[j as usize],
+        Child::Triangles { first, count } => bvh.triangles[first as usize..(first + count) as usize]
+            .iter()
+            .flat_map(|t| t.vertices())
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v))),
+        Child::Instance(_) => (Vec3::INFINITY, Vec3::NEG_INFINITY),
+    }
+}
+
+/// Every tested box of `bvh` contains the geometry under it and is at most a grid cell looser than
+/// its exact bounds on each side (instances aside).
+fn check_boxes(bvh: &Bvh) {
+    let exact = exact_bounds(bvh);
+    for (i, node) in bvh.nodes.iter().enumerate() {
+        for (c, lo, hi) in node.children() {
+            let (exact_lo, exact_hi) = child_bounds(bvh, &exact, c);
+            if exact_lo.cmpgt(exact_hi).any() {
+                continue;
             }
-        } else {
-            for c in [node.left_first as usize, node.left_first as usize + 1] {
-                assert!(c < bvh.nodes.len() && !reached[c], "node {i}: bad or shared child {c}");
-                reached[c] = true;
-                let child = &bvh.nodes[c];
+            assert!(
+                contains(lo, hi, exact_lo) && contains(lo, hi, exact_hi),
+                "node {i}: child box misses geometry"
+            );
+            for axis in 0..3 {
+                let slack = cell(node, axis) + f32::EPSILON * exact_hi[axis].abs().max(exact_lo[axis].abs());
                 assert!(
-                    contains(Vec3::from(child.aabb_min)) && contains(Vec3::from(child.aabb_max)),
-                    "node {i} does not contain child {c}"
+                    exact_lo[axis] - lo[axis] <= slack && hi[axis] - exact_hi[axis] <= slack,
+                    "node {i}: box {lo}..{hi} over a cell looser than {exact_lo}..{exact_hi}"
                 );
-                stack.push((c, depth + 1));
             }
         }
     }
+}
+
+/// Checks the structural invariants the GPU traversal relies on; panics with a description: every
+/// node reached once; children in the first slots; the boxes as [`check_boxes`]; no path defers
+/// more children than the traversal stack holds; every triangle in exactly one leaf of at most
+/// BVH_MAX_LEAF.
+pub(crate) fn check_invariants(bvh: &Bvh, triangles: &[[Vec3; 3]]) {
+    let n = triangles.len();
+    assert_eq!(bvh.triangles.len(), n.max(1));
+    assert!(bvh.max_depth <= MAX_BINARY_DEPTH, "binary depth {} over the limit", bvh.max_depth);
+    let mut seen = vec![0u32; n];
+    let mut reached = vec![false; bvh.nodes.len()];
+    // (node, entries a traversal may have deferred on the way to it)
+    let mut stack = vec![(0usize, 0u32)];
+    reached[0] = true;
+    let mut most_deferred = 0;
+    while let Some((i, deferred)) = stack.pop() {
+        let node = &bvh.nodes[i];
+        let k = node.children().count();
+        assert!(k >= 1, "node {i} has no children");
+        assert!((0..k).all(|j| node.child(j).is_some()), "node {i}: empty slots before children");
+        let below = deferred + k as u32 - 1;
+        assert!(below <= BVH_STACK_SIZE, "node {i}: {below} deferred entries");
+        most_deferred = most_deferred.max(below);
+        for (c, lo, hi) in node.children() {
+            assert!(lo.cmple(hi).all(), "node {i}: inverted box");
+            match Child::of(c) {
+                Child::Triangles { first, count } => {
+                    assert!(count <= BVH_MAX_LEAF, "leaf of node {i} holds {count} triangles");
+                    for tri in &bvh.triangles[first as usize..(first + count) as usize] {
+                        if n == 0 {
+                            continue;
+                        }
+                        seen[tri.index as usize] += 1;
+                        assert_eq!(
+                            tri.vertices(),
+                            triangles[tri.index as usize],
+                            "triangle {} moved",
+                            tri.index
+                        );
+                        assert_eq!(tri.flags & !BVH_FLAG_ALPHA_TESTED, 0);
+                    }
+                }
+                Child::Node(j) => {
+                    let j = j as usize;
+                    assert!(j < bvh.nodes.len() && !reached[j], "node {i}: bad or shared child {j}");
+                    reached[j] = true;
+                    stack.push((j, below));
+                }
+                Child::Instance(_) => panic!("node {i}: an instance in a single-level BVH"),
+            }
+        }
+    }
+    check_boxes(bvh);
     assert!(reached.iter().all(|&r| r), "unreachable nodes");
     assert!(seen.iter().all(|&s| s == 1), "a triangle is in no leaf or in several");
-    assert_eq!(deepest, bvh.max_depth);
+    assert!(
+        most_deferred <= 2 * bvh.max_depth.max(1),
+        "{most_deferred} deferred over twice the binary depth"
+    );
 }
 
 /// Agreement of a traversal with the brute-force reference.
@@ -199,7 +275,7 @@ fn bvh_depth_stays_within_the_stack_on_pathological_input() {
     // rounding decides.)
     assert!(a.hits > 30, "{a:?}");
     let bvh = Bvh::build(&tris, None).expect("BVH build");
-    assert!(bvh.max_depth >= BVH_STACK_SIZE - 2, "the input no longer stresses the depth budget");
+    assert!(bvh.max_depth >= MAX_BINARY_DEPTH - 2, "the input no longer stresses the depth budget");
 }
 
 #[test]
@@ -322,12 +398,13 @@ fn bvh_wgsl_constants_match_rust() {
     for line in [
         format!("const BVH_STACK_SIZE: u32 = {BVH_STACK_SIZE}u;"),
         format!("const BVH_FLAG_ALPHA_TESTED: u32 = {BVH_FLAG_ALPHA_TESTED}u;"),
+        format!("const BVH_EMPTY_CHILD: u32 = {BVH_EMPTY_CHILD:#x}u;"),
         format!("const BVH_BOX_EXIT_SCALE: f32 = {:?};", traverse::BOX_EXIT_SCALE),
         format!("const BVH_MIN_DIR_COMPONENT: f32 = {:?};", traverse::MIN_DIR_COMPONENT),
     ] {
         assert!(src.contains(&line), "bvh.wgsl lacks `{line}`");
     }
-    assert_eq!(std::mem::size_of::<BvhNode>(), 32);
+    assert_eq!(std::mem::size_of::<BvhNode>(), 64);
     assert_eq!(std::mem::size_of::<BvhTriangle>(), 48);
 }
 
@@ -346,7 +423,13 @@ fn bvh_wgsl_structs_and_instance_constant_match_rust() {
         &module,
         "BvhNode",
         size_of::<BvhNode>(),
-        &[("left_first", offset_of!(BvhNode, left_first)), ("count", offset_of!(BvhNode, count))],
+        &[
+            ("origin", offset_of!(BvhNode, origin)),
+            ("exponents", offset_of!(BvhNode, exponents)),
+            ("children", offset_of!(BvhNode, children)),
+            ("lo", offset_of!(BvhNode, lo)),
+            ("hi", offset_of!(BvhNode, hi)),
+        ],
     );
     assert_layout(
         &module,
@@ -356,39 +439,31 @@ fn bvh_wgsl_structs_and_instance_constant_match_rust() {
     );
 }
 
-/// Walks a two-level BVH from the root: every node reached once, children inside their parents (in
-/// the space of their level), no path deeper than the traversal stack. Returns how many times each
-/// triangle index was reached.
+/// Walks a two-level BVH from the root: every node reached once, boxes as [`check_boxes`] (in the
+/// space of their level), no path deferring more entries than the traversal stack holds. Returns
+/// how many times each triangle index was reached.
 fn walk_instanced(bvh: &Bvh, triangle_count: usize) -> Vec<u32> {
+    check_boxes(bvh);
     let mut seen = vec![0u32; triangle_count];
     let mut reached = vec![false; bvh.nodes.len()];
     let mut stack = vec![(0usize, 0u32)];
-    while let Some((i, depth)) = stack.pop() {
-        assert!(depth <= BVH_STACK_SIZE, "node {i} at depth {depth}");
+    while let Some((i, deferred)) = stack.pop() {
         assert!(!reached[i], "node {i} reached twice");
         reached[i] = true;
         let node = bvh.nodes[i];
-        let (lo, hi) = (Vec3::from(node.aabb_min), Vec3::from(node.aabb_max));
-        let contains = |p: Vec3| p.cmpge(lo).all() && p.cmple(hi).all();
-        if node.is_instance() {
-            stack.push((bvh.instances[node.left_first as usize].root as usize, depth));
-        } else if node.is_leaf() {
-            for tri in &bvh.triangles[node.left_first as usize..(node.left_first + node.count) as usize] {
-                assert!(tri.vertices().into_iter().all(contains), "leaf {i} does not contain {}", tri.index);
-                if (tri.index as usize) < triangle_count {
-                    seen[tri.index as usize] += 1;
+        let below = deferred + (node.children().count() as u32).saturating_sub(1);
+        assert!(below <= BVH_STACK_SIZE, "node {i}: {below} deferred entries");
+        for (c, _, _) in node.children() {
+            match Child::of(c) {
+                Child::Instance(index) => stack.push((bvh.instances[index as usize].root as usize, below)),
+                Child::Triangles { first, count } => {
+                    for tri in &bvh.triangles[first as usize..(first + count) as usize] {
+                        if (tri.index as usize) < triangle_count {
+                            seen[tri.index as usize] += 1;
+                        }
+                    }
                 }
-            }
-        } else {
-            for c in [node.left_first as usize, node.left_first as usize + 1] {
-                let child = &bvh.nodes[c];
-                if !child.is_instance() {
-                    assert!(
-                        contains(child.aabb_min.into()) && contains(child.aabb_max.into()),
-                        "node {i} / {c}"
-                    );
-                }
-                stack.push((c, depth + 1));
+                Child::Node(j) => stack.push((j as usize, below)),
             }
         }
     }
@@ -401,7 +476,8 @@ fn instanced_bvh_matches_brute_force_on_the_moved_geometry() {
     let mut bvh = InstancedBvh::build(&scene.tris, &scene.moving).expect("build");
     // Five instances (the empty mesh is none) and the static part.
     assert_eq!(bvh.instance_count(), 5);
-    assert_eq!(bvh.top.nodes.len(), 2 * 6 - 1);
+    // The most a wide tree over 6 leaves can need.
+    assert_eq!(bvh.top.nodes.len(), 6 - 1);
     bvh.place(&scene.transforms);
     let n = scene.tris.triangles.len();
     let seen = walk_instanced(&bvh.bvh, n);
@@ -410,7 +486,7 @@ fn instanced_bvh_matches_brute_force_on_the_moved_geometry() {
     for (i, s) in seen.iter().enumerate() {
         assert_eq!(*s, u32::from(!collapsed.contains(&i)), "triangle {i}");
     }
-    assert!(bvh.bvh.max_depth <= BVH_STACK_SIZE);
+    assert!(bvh.bvh.max_depth <= MAX_BINARY_DEPTH);
 
     let alpha = |t: u32, u: f32, _: f32| t.is_multiple_of(2) || u >= 0.5;
     let rays = geo::test_rays(&scene.world, 6000, 17);

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::{BVH_STACK_SIZE, Bvh, BvhNode, Hit, Ray};
+use super::{BVH_STACK_SIZE, BVH_WIDTH, Bvh, BvhNode, Child, Hit, Ray, node_ref};
 
 /// Exit distances of box tests are scaled by 1 + 16u (u = 2^-24) so that rounding never culls a box
 /// the ray touches, e.g. a triangle lying in its box's face: Ize 2013 ("Robust BVH Ray Traversal")
@@ -112,14 +112,18 @@ impl RayData {
         RayData { origin: ray.origin, inv_dir: 1.0 / safe, m0: m.x_axis, m1: m.y_axis, m2: m.z_axis }
     }
 
-    /// Entry distance into the box, or `None` if the ray misses it within `[tmin, tmax]`.
+    /// Entry distances into the children of `node` (`bvh_children_entry`): `f32::MAX` for a child the
+    /// ray misses within `[tmin, tmax]` and for empty slots.
     #[inline(always)]
-    fn box_entry(&self, n: &BvhNode, tmin: f32, tmax: f32) -> Option<f32> {
-        let t0 = (Vec3::from(n.aabb_min) - self.origin) * self.inv_dir;
-        let t1 = (Vec3::from(n.aabb_max) - self.origin) * self.inv_dir;
-        let near = t0.min(t1).max_element().max(tmin);
-        let far = (t0.max(t1).min_element() * BOX_EXIT_SCALE).min(tmax);
-        (near <= far).then_some(near)
+    fn children_entry(&self, node: &BvhNode, tmin: f32, tmax: f32) -> [f32; BVH_WIDTH] {
+        std::array::from_fn(|j| {
+            let (lo, hi) = node.child_box(j);
+            let t0 = (lo - self.origin) * self.inv_dir;
+            let t1 = (hi - self.origin) * self.inv_dir;
+            let near = t0.min(t1).max_element().max(tmin);
+            let far = (t0.max(t1).min_element() * BOX_EXIT_SCALE).min(tmax);
+            if near <= far && node.child(j).is_some() { near } else { f32::MAX }
+        })
     }
 
     /// A vertex in the ray's frame: `bvh_project`, one function of the vertex and the ray alone.
@@ -166,11 +170,25 @@ impl RayData {
     }
 }
 
+/// The children of a node ordered by entry distance, nearest first, misses (`f32::MAX`) last:
+/// `bvh_sort_children`'s compare-exchange network, equal distances kept in slot order, so that CPU
+/// and GPU visit children (and so break ties between equally near hits) alike.
+#[inline(always)]
+fn sort_children(mut t: [f32; BVH_WIDTH], mut c: [u32; BVH_WIDTH]) -> ([f32; BVH_WIDTH], [u32; BVH_WIDTH]) {
+    for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+        if t[b] < t[a] {
+            t.swap(a, b);
+            c.swap(a, b);
+        }
+    }
+    (t, c)
+}
+
 impl Bvh {
-    /// Entering the instance of leaf `node`: the ray in its space and its bottom level's root.
-    fn enter_instance<A: Arithmetic>(&self, node: &BvhNode, ray: &Ray) -> (RayData, Option<u32>) {
-        let instance = &self.instances[node.left_first as usize];
-        (RayData::new(&instance.map_ray::<A>(ray)), Some(instance.root))
+    /// Entering instance `index`: the ray in its space and its bottom level's root.
+    fn enter_instance<A: Arithmetic>(&self, index: u32, ray: &Ray) -> (RayData, Option<u32>) {
+        let instance = &self.instances[index as usize];
+        (RayData::new(&instance.map_ray::<A>(ray)), Some(node_ref(instance.root, 0)))
     }
 
     /// Closest hit with `tmin < t < tmax`; alpha-tested triangles count as opaque.
@@ -207,10 +225,10 @@ impl Bvh {
         let mut t_best = tmax;
         let mut stack = [(0u32, 0f32); BVH_STACK_SIZE as usize];
         let mut sp = 0;
-        let mut current = r.box_entry(&self.nodes[0], tmin, t_best).map(|_| 0u32);
+        let mut current = Some(node_ref(0, 0));
         loop {
-            let index = match current.take() {
-                Some(i) => i,
+            let reference = match current.take() {
+                Some(c) => c,
                 None => {
                     if sp == 0 {
                         break;
@@ -220,46 +238,42 @@ impl Bvh {
                         r = world.clone();
                         instance_sp = 0;
                     }
-                    let (i, entry) = stack[sp];
+                    let (c, entry) = stack[sp];
                     if entry >= t_best {
                         continue;
                     }
-                    i
+                    c
                 }
             };
-            let node = &self.nodes[index as usize];
-            if node.is_instance() {
-                (r, current) = self.enter_instance::<A>(node, ray);
-                instance_sp = sp;
-                continue;
-            }
-            if node.is_leaf() {
-                for tri in &self.triangles[node.left_first as usize..(node.left_first + node.count) as usize]
-                {
-                    let [v0, v1, v2] = tri.vertices();
-                    if let Some((t, u, v)) = r.triangle::<A>(v0, v1, v2, tmin, t_best)
-                        && (!tri.is_alpha_tested() || alpha(tri.index, u, v))
-                    {
-                        t_best = t;
-                        best = Some(Hit { t, triangle: tri.index, u, v });
+            match Child::of(reference) {
+                Child::Instance(index) => {
+                    (r, current) = self.enter_instance::<A>(index, ray);
+                    instance_sp = sp;
+                }
+                Child::Triangles { first, count } => {
+                    for tri in &self.triangles[first as usize..(first + count) as usize] {
+                        let [v0, v1, v2] = tri.vertices();
+                        if let Some((t, u, v)) = r.triangle::<A>(v0, v1, v2, tmin, t_best)
+                            && (!tri.is_alpha_tested() || alpha(tri.index, u, v))
+                        {
+                            t_best = t;
+                            best = Some(Hit { t, triangle: tri.index, u, v });
+                        }
                     }
                 }
-                continue;
-            }
-            let l = node.left_first;
-            let tl = r.box_entry(&self.nodes[l as usize], tmin, t_best);
-            let tr = r.box_entry(&self.nodes[l as usize + 1], tmin, t_best);
-            current = match (tl, tr) {
-                (Some(a), Some(b)) => {
-                    let (near, far, far_t) = if a <= b { (l, l + 1, b) } else { (l + 1, l, a) };
-                    stack[sp] = (far, far_t);
-                    sp += 1;
-                    Some(near)
+                Child::Node(index) => {
+                    let node = &self.nodes[index as usize];
+                    let (t, c) = sort_children(r.children_entry(node, tmin, t_best), node.children);
+                    // The nearest child next, the others deferred far to near.
+                    for j in (1..BVH_WIDTH).rev() {
+                        if t[j] < f32::MAX {
+                            stack[sp] = (c[j], t[j]);
+                            sp += 1;
+                        }
+                    }
+                    current = (t[0] < f32::MAX).then_some(c[0]);
                 }
-                (Some(_), None) => Some(l),
-                (None, Some(_)) => Some(l + 1),
-                (None, None) => None,
-            };
+            }
         }
         best
     }
@@ -293,10 +307,10 @@ impl Bvh {
         let mut instance_sp = 0;
         let mut stack = [0u32; BVH_STACK_SIZE as usize];
         let mut sp = 0;
-        let mut current = r.box_entry(&self.nodes[0], tmin, tmax).map(|_| 0u32);
+        let mut current = Some(node_ref(0, 0));
         loop {
-            let index = match current.take() {
-                Some(i) => i,
+            let reference = match current.take() {
+                Some(c) => c,
                 None if sp == 0 => return false,
                 None => {
                     sp -= 1;
@@ -307,32 +321,34 @@ impl Bvh {
                     stack[sp]
                 }
             };
-            let node = &self.nodes[index as usize];
-            if node.is_instance() {
-                (r, current) = self.enter_instance::<A>(node, ray);
-                instance_sp = sp;
-                continue;
-            }
-            if node.is_leaf() {
-                for tri in &self.triangles[node.left_first as usize..(node.left_first + node.count) as usize]
-                {
-                    let [v0, v1, v2] = tri.vertices();
-                    if let Some((_, u, v)) = r.triangle::<A>(v0, v1, v2, tmin, tmax)
-                        && (!tri.is_alpha_tested() || alpha(tri.index, u, v))
-                    {
-                        return true;
+            match Child::of(reference) {
+                Child::Instance(index) => {
+                    (r, current) = self.enter_instance::<A>(index, ray);
+                    instance_sp = sp;
+                }
+                Child::Triangles { first, count } => {
+                    for tri in &self.triangles[first as usize..(first + count) as usize] {
+                        let [v0, v1, v2] = tri.vertices();
+                        if let Some((_, u, v)) = r.triangle::<A>(v0, v1, v2, tmin, tmax)
+                            && (!tri.is_alpha_tested() || alpha(tri.index, u, v))
+                        {
+                            return true;
+                        }
                     }
                 }
-                continue;
+                Child::Node(index) => {
+                    let node = &self.nodes[index as usize];
+                    // Any order finds an occluder; the nearest first is the same code as closest hits.
+                    let (t, c) = sort_children(r.children_entry(node, tmin, tmax), node.children);
+                    for j in (1..BVH_WIDTH).rev() {
+                        if t[j] < f32::MAX {
+                            stack[sp] = c[j];
+                            sp += 1;
+                        }
+                    }
+                    current = (t[0] < f32::MAX).then_some(c[0]);
+                }
             }
-            let l = node.left_first;
-            let hl = r.box_entry(&self.nodes[l as usize], tmin, tmax).is_some();
-            let hr = r.box_entry(&self.nodes[l as usize + 1], tmin, tmax).is_some();
-            if hl && hr {
-                stack[sp] = l + 1;
-                sp += 1;
-            }
-            current = if hl { Some(l) } else { hr.then_some(l + 1) };
         }
     }
 }

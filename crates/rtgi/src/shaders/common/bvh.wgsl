@@ -1,5 +1,5 @@
-// Ray queries against the scene BVH built by `gpu/bvh` (binned SAH, 32-byte nodes, triangles in BVH
-// order). The CPU traversal in `gpu/bvh/traverse.rs` mirrors this file operation for operation; keep
+// Ray queries against the scene BVH built by `gpu/bvh` (binned SAH collapsed into 4-wide nodes with
+// byte-quantised child boxes, see gpu/bvh/wide.rs; triangles in BVH order). The CPU traversal in `gpu/bvh/traverse.rs` mirrors this file operation for operation; keep
 // them in step.
 //
 // CONTRACT WITH THE INCLUDING SHADER. This module declares no bindings (each technique picks its own
@@ -16,8 +16,8 @@
 // v1 and v2; it returns true for an opaque hit. Shaders without alpha-masked materials can simply
 // `return true;`.
 //
-// Two levels: a leaf with count == BVH_INSTANCE_LEAF is instance left_first (a rigid moving mesh, see
-// gpu/bvh/instances.rs). The ray is mapped into the instance's space and the traversal goes on at its
+// Two levels: a child reference with count == BVH_INSTANCE_LEAF is instance `first` (a rigid moving
+// mesh, see gpu/bvh/instances.rs). The ray is mapped into the instance's space and the traversal goes on at its
 // bottom level's root; hit distances need no conversion (the map is affine and the direction keeps its
 // length in units of t). Stack entries pushed before the instance was entered are in world space, so
 // popping below that depth restores the world ray. Only one level of instancing exists.
@@ -32,12 +32,13 @@
 
 #import common/math.wgsl
 
-// The builder never makes trees deeper than this, which bounds the stack (BVH_STACK_SIZE in
-// gpu/bvh/mod.rs; a test checks they agree).
-const BVH_STACK_SIZE: u32 = 32u;
+// Twice the binary tree's depth limit, which bounds the deferred children of a path (BVH_STACK_SIZE
+// in gpu/bvh/mod.rs, which explains; a test checks they agree).
+const BVH_STACK_SIZE: u32 = 64u;
 const BVH_NO_HIT: u32 = 0xffffffffu;
 const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
 const BVH_INSTANCE_LEAF: u32 = 7u;
+const BVH_EMPTY_CHILD: u32 = 0xffffffffu;
 // Box exit distances are scaled by 1 + 16u (u = 2^-24) so rounding never culls a box the ray touches,
 // e.g. one whose face holds a triangle (Ize 2013, "Robust BVH Ray Traversal", whose 1 + 2γ₃ assumes a
 // correctly rounded 1/dir). WGSL only promises 2.5 ulp (≤ 5u) for a division, so a slab distance
@@ -60,13 +61,17 @@ struct Hit {
     v: f32,
 }
 
-// count > 0: leaf with triangles [left_first, left_first + count) in BVH order.
-// count == 0: internal node with children left_first and left_first + 1.
+// Up to four children. A child reference is (first << 3) | count: count == 0 node `first`, 1..4 the
+// triangles [first, first + count) in BVH order, BVH_INSTANCE_LEAF instance `first`; BVH_EMPTY_CHILD
+// an empty slot. Child j's box is origin + q · 2^(e − 127) per axis, q the byte j of lo (min) and hi
+// (max), e the axis's byte of exponents.
 struct BvhNode {
-    aabb_min: vec3f,
-    left_first: u32,
-    aabb_max: vec3f,
-    count: u32,
+    origin: vec3f,
+    exponents: u32,
+    children: vec4u,
+    lo: vec3u,
+    spare: u32,
+    hi: vec3u,
 }
 
 // world_to_object rows: object = (dot(row0, p), dot(row1, p), dot(row2, p)), p = (world, 1 or 0),
@@ -184,7 +189,7 @@ fn bvh_enter_instance(ray: Ray, i: u32) -> BvhInstanceEntry {
     let instance = bvh_instances[i];
     let origin = bvh_affine(instance, ray.origin, 1.0);
     let dir = bvh_affine(instance, ray.dir, 0.0);
-    return BvhInstanceEntry(bvh_ray(Ray(origin, dir)), bvh_node_ref(bvh_nodes[instance.root]));
+    return BvhInstanceEntry(bvh_ray(Ray(origin, dir)), instance.root << 3u);
 }
 
 // world_to_object applied to (p, w), as explicit fma in the CPU twin's order (BvhInstance::map_ray)
@@ -202,14 +207,63 @@ fn bvh_min3(v: vec3f) -> f32 {
     return min(v.x, min(v.y, v.z));
 }
 
-// Entry distance of the ray into the box, FLT_MAX if it misses it within [tmin, tmax]. (A real entry
-// distance is at most the box's exit distance, finite for any box in a scene.)
-fn bvh_box_entry(bmin: vec3f, bmax: vec3f, r: BvhRay, tmin: f32, tmax: f32) -> f32 {
-    let t0 = (bmin - r.origin) * r.inv_dir;
-    let t1 = (bmax - r.origin) * r.inv_dir;
-    let near = max(max3(min(t0, t1)), tmin);
-    let far = min(bvh_min3(max(t0, t1)) * BVH_BOX_EXIT_SCALE, tmax);
-    return select(FLT_MAX, near, near <= far);
+// Bytes 0..3 of w as the lanes of a vector.
+fn bvh_bytes(w: u32) -> vec4f {
+    return vec4f((vec4u(w) >> vec4u(0u, 8u, 16u, 24u)) & vec4u(0xffu));
+}
+
+// A node's grid cell size along one axis, 2^(byte − 127).
+fn bvh_cell(exponents: u32, axis: u32) -> f32 {
+    return bitcast<f32>(((exponents >> (8u * axis)) & 0xffu) << 23u);
+}
+
+// Slab distances of the ray to a plane of each child: the plane is origin + q·cell with q·cell
+// exact, so fused or not the box is the CPU twin's to the bit (BvhNode::child_box).
+fn bvh_slabs(q: u32, cell: f32, origin: f32, ray_origin: f32, inv_dir: f32) -> vec4f {
+    return (fma(bvh_bytes(q), vec4f(cell), vec4f(origin)) - ray_origin) * inv_dir;
+}
+
+// Entry distances of the ray into the node's four children, FLT_MAX for children it misses within
+// [tmin, tmax] and for empty slots. (A real entry distance is at most the box's exit distance,
+// finite for any box in a scene.)
+fn bvh_children_entry(node: BvhNode, r: BvhRay, tmin: f32, tmax: f32) -> vec4f {
+    let x0 = bvh_slabs(node.lo.x, bvh_cell(node.exponents, 0u), node.origin.x, r.origin.x, r.inv_dir.x);
+    let x1 = bvh_slabs(node.hi.x, bvh_cell(node.exponents, 0u), node.origin.x, r.origin.x, r.inv_dir.x);
+    let y0 = bvh_slabs(node.lo.y, bvh_cell(node.exponents, 1u), node.origin.y, r.origin.y, r.inv_dir.y);
+    let y1 = bvh_slabs(node.hi.y, bvh_cell(node.exponents, 1u), node.origin.y, r.origin.y, r.inv_dir.y);
+    let z0 = bvh_slabs(node.lo.z, bvh_cell(node.exponents, 2u), node.origin.z, r.origin.z, r.inv_dir.z);
+    let z1 = bvh_slabs(node.hi.z, bvh_cell(node.exponents, 2u), node.origin.z, r.origin.z, r.inv_dir.z);
+    let near = max(max(min(x0, x1), min(y0, y1)), max(min(z0, z1), vec4f(tmin)));
+    let far = min(min(min(max(x0, x1), max(y0, y1)), max(z0, z1)) * BVH_BOX_EXIT_SCALE, vec4f(tmax));
+    let hit = (near <= far) & (node.children != vec4u(BVH_EMPTY_CHILD));
+    return select(vec4f(FLT_MAX), near, hit);
+}
+
+// A node's children ordered by entry distance, nearest first, misses last: a compare-exchange
+// network whose equal distances keep their slot order (sort_children in gpu/bvh/traverse.rs, so
+// that both visit children, and break ties between equally near hits, alike).
+struct BvhChildren {
+    t: vec4f,
+    refs: vec4u,
+}
+
+fn bvh_sort_children(entry: vec4f, children: vec4u) -> BvhChildren {
+    var t = entry;
+    var c = children;
+    // Pairs (0, 1) and (2, 3).
+    let a = vec4<bool>(t.y < t.x, t.y < t.x, t.w < t.z, t.w < t.z);
+    t = select(t, t.yxwz, a);
+    c = select(c, c.yxwz, a);
+    // Pairs (0, 2) and (1, 3).
+    let b = vec4<bool>(t.z < t.x, t.w < t.y, t.z < t.x, t.w < t.y);
+    t = select(t, t.zwxy, b);
+    c = select(c, c.zwxy, b);
+    // Pair (1, 2).
+    let m = t.z < t.y;
+    let d = vec4<bool>(false, m, m, false);
+    t = select(t, t.xzyw, d);
+    c = select(c, c.xzyw, d);
+    return BvhChildren(t, c);
 }
 
 // Watertight ray–triangle test of triangle `i` (BVH order): vec4f(t, u, v, 1) for tmin < t < tmax,
@@ -248,12 +302,9 @@ fn bvh_accept(i: u32, u: f32, v: f32) -> bool {
     return bvh_alpha_test(bitcast<u32>(bvh_tris[3u * i].w), u, v);
 }
 
-// What a visit needs of a node, (left_first << 3) | count, kept from the parent's fetch of both
-// children so that visiting a node loads nothing. On lavapipe every storage load of a lane-varying
-// address is a scalar load per lane, so loads dominate traversal cost. (left_first < 2^29 and
-// count <= 4 or BVH_INSTANCE_LEAF are guaranteed by the builders.)
-fn bvh_node_ref(n: BvhNode) -> u32 {
-    return (n.left_first << 3u) | n.count;
+// The reference of a leaf's triangles after its first: first + 1, count − 1 (first < 2^29 − 1).
+fn node_ref_next(leaf: u32) -> u32 {
+    return leaf + (1u << 3u) - 1u;
 }
 
 // Closest hit with tmin < t < tmax (see the contract above).
@@ -265,15 +316,15 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
     var instance_sp = 0u;
     var hit = Hit(FLT_MAX, BVH_NO_HIT, 0.0, 0.0);
     var t_best = tmax;
-    // Deferred far children and their entry distances, skipped when a closer hit was found since.
+    // Deferred children and their entry distances, skipped when a closer hit was found since.
     var stack_node: array<u32, BVH_STACK_SIZE>;
     var stack_t: array<f32, BVH_STACK_SIZE>;
     var sp = 0u;
-    let root = bvh_nodes[0];
-    var current = bvh_node_ref(root);
-    var have_current = bvh_box_entry(root.aabb_min, root.aabb_max, r, tmin, t_best) < FLT_MAX;
+    // The root, node 0.
+    var current = 0u;
+    var have_current = true;
     // One flat loop (no nested descent loop): on a SIMD CPU driver all lanes of a batch then step
-    // together through inner nodes and leaves alike.
+    // together through nodes and leaves alike.
     loop {
         if !have_current {
             if sp == 0u {
@@ -300,35 +351,39 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
             have_current = true;
             continue;
         }
+        // One triangle per iteration, the leaf's rest next: lanes in leaves and lanes in nodes then
+        // step together (a leaf loop made every lane wait for the longest leaf among them; 1.4x the
+        // closest-hit rays/s of random rays on lavapipe). The order of tests is the leaf's.
         if count > 0u {
-            for (var i = first; i < first + count; i++) {
-                let h = bvh_triangle(r, i, tmin, t_best);
-                if h.w != 0.0 && bvh_accept(i, h.y, h.z) {
-                    t_best = h.x;
-                    hit = Hit(h.x, bitcast<u32>(bvh_tris[3u * i].w), h.y, h.z);
-                }
+            let h = bvh_triangle(r, first, tmin, t_best);
+            if h.w != 0.0 && bvh_accept(first, h.y, h.z) {
+                t_best = h.x;
+                hit = Hit(h.x, bitcast<u32>(bvh_tris[3u * first].w), h.y, h.z);
             }
+            current = node_ref_next(current);
+            have_current = count > 1u;
             continue;
         }
-        let left = bvh_nodes[first];
-        let right = bvh_nodes[first + 1u];
-        let tl = bvh_box_entry(left.aabb_min, left.aabb_max, r, tmin, t_best);
-        let tr = bvh_box_entry(right.aabb_min, right.aabb_max, r, tmin, t_best);
-        if tl < FLT_MAX && tr < FLT_MAX {
-            // Near child first, so that hits found there cull the far one.
-            let left_near = tl <= tr;
-            current = select(bvh_node_ref(right), bvh_node_ref(left), left_near);
-            stack_node[sp] = select(bvh_node_ref(left), bvh_node_ref(right), left_near);
-            stack_t[sp] = max(tl, tr);
+        let node = bvh_nodes[first];
+        let s = bvh_sort_children(bvh_children_entry(node, r, tmin, t_best), node.children);
+        // The nearest child next, the others deferred far to near.
+        if s.t.w < FLT_MAX {
+            stack_node[sp] = s.refs.w;
+            stack_t[sp] = s.t.w;
             sp += 1u;
-            have_current = true;
-        } else if tl < FLT_MAX {
-            current = bvh_node_ref(left);
-            have_current = true;
-        } else if tr < FLT_MAX {
-            current = bvh_node_ref(right);
-            have_current = true;
         }
+        if s.t.z < FLT_MAX {
+            stack_node[sp] = s.refs.z;
+            stack_t[sp] = s.t.z;
+            sp += 1u;
+        }
+        if s.t.y < FLT_MAX {
+            stack_node[sp] = s.refs.y;
+            stack_t[sp] = s.t.y;
+            sp += 1u;
+        }
+        current = s.refs.x;
+        have_current = s.t.x < FLT_MAX;
     }
     return hit;
 }
@@ -340,9 +395,8 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
     var instance_sp = 0u;
     var stack: array<u32, BVH_STACK_SIZE>;
     var sp = 0u;
-    let root = bvh_nodes[0];
-    var current = bvh_node_ref(root);
-    var have_current = bvh_box_entry(root.aabb_min, root.aabb_max, r, tmin, tmax) < FLT_MAX;
+    var current = 0u;
+    var have_current = true;
     loop {
         if !have_current {
             if sp == 0u {
@@ -367,25 +421,31 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
             continue;
         }
         if count > 0u {
-            for (var i = first; i < first + count; i++) {
-                let h = bvh_triangle(r, i, tmin, tmax);
-                if h.w != 0.0 && bvh_accept(i, h.y, h.z) {
-                    return true;
-                }
+            let h = bvh_triangle(r, first, tmin, tmax);
+            if h.w != 0.0 && bvh_accept(first, h.y, h.z) {
+                return true;
             }
+            current = node_ref_next(current);
+            have_current = count > 1u;
             continue;
         }
-        let left = bvh_nodes[first];
-        let right = bvh_nodes[first + 1u];
-        let hl = bvh_box_entry(left.aabb_min, left.aabb_max, r, tmin, tmax) < FLT_MAX;
-        let hr = bvh_box_entry(right.aabb_min, right.aabb_max, r, tmin, tmax) < FLT_MAX;
-        // Any order finds an occluder; no distance sort needed.
-        if hl && hr {
-            stack[sp] = bvh_node_ref(right);
+        let node = bvh_nodes[first];
+        // Any order finds an occluder; nearest first is the closest-hit code.
+        let s = bvh_sort_children(bvh_children_entry(node, r, tmin, tmax), node.children);
+        if s.t.w < FLT_MAX {
+            stack[sp] = s.refs.w;
             sp += 1u;
         }
-        current = select(bvh_node_ref(right), bvh_node_ref(left), hl);
-        have_current = hl || hr;
+        if s.t.z < FLT_MAX {
+            stack[sp] = s.refs.z;
+            sp += 1u;
+        }
+        if s.t.y < FLT_MAX {
+            stack[sp] = s.refs.y;
+            sp += 1u;
+        }
+        current = s.refs.x;
+        have_current = s.t.x < FLT_MAX;
     }
     return false;
 }
