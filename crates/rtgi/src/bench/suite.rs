@@ -469,6 +469,7 @@ warmup = 5
                 "rsm-timing.toml",
                 "rsm.toml",
                 "splat.toml",
+                "traversal.toml",
                 "vxgi.toml"
             ]
         );

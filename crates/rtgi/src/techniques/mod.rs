@@ -91,6 +91,14 @@ impl Measured<'_> {
         let calls = self.passes.iter().find(|p| p.name == name)?.calls;
         self.pass_ms(name).filter(|_| calls > 0).map(|ms| ms / f64::from(calls))
     }
+
+    /// Mean time of a steady call of pass `name` (every call after the first, whose time includes
+    /// lazy pipeline compilation on some drivers): GPU timestamps, else serialised wall time; `None`
+    /// after a single call or when neither was measured.
+    pub fn pass_steady_ms(&self, name: &str) -> Option<f64> {
+        let p = self.passes.iter().find(|p| p.name == name)?;
+        p.gpu.as_ref().map(|g| g.mean_ms).or(p.steady_wall_ms)
+    }
 }
 
 /// What changed in place in the GPU scene (see [`Technique::scene_changed`]).

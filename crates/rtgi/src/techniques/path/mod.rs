@@ -69,6 +69,7 @@ struct PathTracer {
     spp: u32,
     sample_indices: DispatchSlots,
     samples: u64,
+    samples_per_frame: u64,
 }
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -118,7 +119,15 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
     )?;
-    Ok(Box::new(PathTracer { pipeline, bind_group, ray_counter, spp, sample_indices, samples: 0 }))
+    Ok(Box::new(PathTracer {
+        pipeline,
+        bind_group,
+        ray_counter,
+        spp,
+        sample_indices,
+        samples: 0,
+        samples_per_frame: 0,
+    }))
 }
 
 impl Technique for PathTracer {
@@ -147,7 +156,8 @@ impl Technique for PathTracer {
                 pass.dispatch_workgroups(wx, wy, 1);
             }
         })?;
-        self.samples += u64::from(fc.frame.width) * u64::from(fc.frame.height) * u64::from(self.spp);
+        self.samples_per_frame = u64::from(fc.frame.width) * u64::from(fc.frame.height) * u64::from(self.spp);
+        self.samples += self.samples_per_frame;
         Ok(())
     }
 
@@ -159,14 +169,22 @@ impl Technique for PathTracer {
         let count = readback::read_buffer(ctx, &self.ray_counter, 0, 8)?;
         let words: &[u32] = bytemuck::cast_slice(&count);
         let rays = (u64::from(words[1]) << 32 | u64::from(words[0])) as f64;
-        // The path tracer is the frame's only pass, so the frames' wall time stands in for it where
-        // per-pass times are unknown (frame timing without reliable timestamps).
-        let seconds = (measured.pass_ms(PASS).unwrap_or(measured.frames_wall_ms) / 1e3).max(1e-9);
+        let samples = self.samples as f64;
+        // Rates over steady frames (a first frame's time includes pipeline compilation on lavapipe),
+        // with the rays per sample of every frame rendered. Over all frames where steady times are
+        // unknown; the path tracer is the frame's only pass, so the frames' wall time stands in for
+        // it where per-pass times are unknown (frame timing without reliable timestamps).
+        let samples_per_second = match measured.pass_steady_ms(PASS) {
+            Some(ms) => self.samples_per_frame as f64 / (ms / 1e3).max(1e-12),
+            None => samples / (measured.pass_ms(PASS).unwrap_or(measured.frames_wall_ms) / 1e3).max(1e-9),
+        };
+        let rays_per_sample = rays / samples.max(1.0);
         Ok(BTreeMap::from([
-            ("samples".to_string(), self.samples as f64),
+            ("samples".to_string(), samples),
             ("rays".to_string(), rays),
-            ("samples_per_second".to_string(), self.samples as f64 / seconds),
-            ("rays_per_second".to_string(), rays / seconds),
+            ("rays_per_sample".to_string(), rays_per_sample),
+            ("samples_per_second".to_string(), samples_per_second),
+            ("rays_per_second".to_string(), rays_per_sample * samples_per_second),
         ]))
     }
 }
