@@ -8,11 +8,6 @@ use super::test_geometry::{self as geo, RayKind, Rng};
 use super::traverse::{self, Arithmetic, Fused};
 use super::*;
 
-/// Cell size of `node`'s quantisation grid along `axis`.
-fn cell(node: &BvhNode, axis: usize) -> f32 {
-    f32::from_bits(((node.exponents >> (8 * axis)) & 0xff) << 23)
-}
-
 /// Whether the box `lo..=hi` contains `p`.
 fn contains(lo: Vec3, hi: Vec3, p: Vec3) -> bool {
     p.cmpge(lo).all() && p.cmple(hi).all()
@@ -58,7 +53,7 @@ fn check_boxes(bvh: &Bvh) {
                 "node {i}: child box misses geometry"
             );
             for axis in 0..3 {
-                let slack = cell(node, axis) + f32::EPSILON * exact_hi[axis].abs().max(exact_lo[axis].abs());
+                let slack = node.cell(axis) + f32::EPSILON * exact_hi[axis].abs().max(exact_lo[axis].abs());
                 assert!(
                     exact_lo[axis] - lo[axis] <= slack && hi[axis] - exact_hi[axis] <= slack,
                     "node {i}: box {lo}..{hi} over a cell looser than {exact_lo}..{exact_hi}"

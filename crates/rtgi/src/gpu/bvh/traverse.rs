@@ -191,6 +191,27 @@ impl Bvh {
         (RayData::new(&instance.map_ray::<A>(ray)), Some(node_ref(instance.root, 0)))
     }
 
+    /// Visits node `index`: returns its nearest child the ray enters within `[tmin, tmax]` and
+    /// defers the others far to near through `defer(reference, entry)`, as `bvh.wgsl` does.
+    #[inline(always)]
+    fn visit(
+        &self,
+        r: &RayData,
+        index: u32,
+        tmin: f32,
+        tmax: f32,
+        mut defer: impl FnMut(u32, f32),
+    ) -> Option<u32> {
+        let node = &self.nodes[index as usize];
+        let (t, c) = sort_children(r.children_entry(node, tmin, tmax), node.children);
+        for j in (1..BVH_WIDTH).rev() {
+            if t[j] < f32::MAX {
+                defer(c[j], t[j]);
+            }
+        }
+        (t[0] < f32::MAX).then_some(c[0])
+    }
+
     /// Closest hit with `tmin < t < tmax`; alpha-tested triangles count as opaque.
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
         self.intersect_with(ray, tmin, tmax, |_, _, _| true)
@@ -262,16 +283,10 @@ impl Bvh {
                     }
                 }
                 Child::Node(index) => {
-                    let node = &self.nodes[index as usize];
-                    let (t, c) = sort_children(r.children_entry(node, tmin, t_best), node.children);
-                    // The nearest child next, the others deferred far to near.
-                    for j in (1..BVH_WIDTH).rev() {
-                        if t[j] < f32::MAX {
-                            stack[sp] = (c[j], t[j]);
-                            sp += 1;
-                        }
-                    }
-                    current = (t[0] < f32::MAX).then_some(c[0]);
+                    current = self.visit(&r, index, tmin, t_best, |c, t| {
+                        stack[sp] = (c, t);
+                        sp += 1;
+                    });
                 }
             }
         }
@@ -336,17 +351,12 @@ impl Bvh {
                         }
                     }
                 }
+                // Any order finds an occluder; nearest first is the closest-hit code.
                 Child::Node(index) => {
-                    let node = &self.nodes[index as usize];
-                    // Any order finds an occluder; the nearest first is the same code as closest hits.
-                    let (t, c) = sort_children(r.children_entry(node, tmin, tmax), node.children);
-                    for j in (1..BVH_WIDTH).rev() {
-                        if t[j] < f32::MAX {
-                            stack[sp] = c[j];
-                            sp += 1;
-                        }
-                    }
-                    current = (t[0] < f32::MAX).then_some(c[0]);
+                    current = self.visit(&r, index, tmin, tmax, |c, _| {
+                        stack[sp] = c;
+                        sp += 1;
+                    });
                 }
             }
         }

@@ -24,7 +24,7 @@
 
 use glam::Vec3;
 
-use super::{BVH_EMPTY_CHILD, BVH_MAX_LEAF, BvhNode, node_ref};
+use super::{BVH_EMPTY_CHILD, BvhNode, Child, node_ref};
 
 /// Children per node.
 pub const BVH_WIDTH: usize = 4;
@@ -102,8 +102,10 @@ pub(super) fn collapse(binary: &[BinaryNode], out: &mut Vec<BvhNode>, triangle_b
             let n = &binary[c];
             boxes[j] = (Vec3::from(n.aabb_min), Vec3::from(n.aabb_max));
             references[j] = if n.leaf {
-                let count = n.link & 7;
-                if (1..=BVH_MAX_LEAF).contains(&count) { n.link + (triangle_base << 3) } else { n.link }
+                match Child::of(n.link) {
+                    Child::Triangles { .. } => n.link + (triangle_base << 3),
+                    _ => n.link,
+                }
             } else {
                 // Siblings' slots are adjacent, and filled first child first.
                 let s = out.len();
@@ -161,16 +163,17 @@ impl BvhNode {
             let (byte, lo_q, hi_q) = loop {
                 let byte = (e + 127) as u32;
                 let cell = 2f64.powi(e);
+                let cell_f32 = f32::from_bits(byte << 23);
                 let (mut lo_q, mut hi_q) = (0u32, 0u32);
                 let mut fits = true;
                 for (j, (bmin, bmax)) in boxes.iter().enumerate() {
                     let origin = f64::from(lo[axis]);
                     let mut a = ((f64::from(bmin[axis]) - origin) / cell).floor().max(0.0) as u32;
                     let mut b = ((f64::from(bmax[axis]) - origin) / cell).ceil().max(0.0) as u32;
-                    while a > 0 && dequantise(a, byte, lo[axis]) > bmin[axis] {
+                    while a > 0 && dequantise(a, cell_f32, lo[axis]) > bmin[axis] {
                         a -= 1;
                     }
-                    while b <= 255 && dequantise(b, byte, lo[axis]) < bmax[axis] {
+                    while b <= 255 && dequantise(b, cell_f32, lo[axis]) < bmax[axis] {
                         b += 1;
                     }
                     fits &= b <= 255;
@@ -195,16 +198,18 @@ impl BvhNode {
         Some(self.children[j]).filter(|&c| c != BVH_EMPTY_CHILD)
     }
 
+    /// The grid's cell size along `axis` (`bvh_cell` in `bvh.wgsl`).
+    #[inline(always)]
+    pub fn cell(&self, axis: usize) -> f32 {
+        f32::from_bits(((self.exponents >> (8 * axis)) & 0xff) << 23)
+    }
+
     /// The box traversal tests for child `j`, as `bvh_children_entry` in `bvh.wgsl` computes it.
     #[inline(always)]
     pub fn child_box(&self, j: usize) -> (Vec3, Vec3) {
         let corner = |q: [u32; 3]| {
             Vec3::from_array(std::array::from_fn(|axis| {
-                dequantise(
-                    (q[axis] >> (8 * j)) & 0xff,
-                    (self.exponents >> (8 * axis)) & 0xff,
-                    self.origin[axis],
-                )
+                dequantise((q[axis] >> (8 * j)) & 0xff, self.cell(axis), self.origin[axis])
             }))
         };
         (corner(self.lo), corner(self.hi))
@@ -213,15 +218,18 @@ impl BvhNode {
     /// The non-empty children: reference and tested box.
     pub fn children(&self) -> impl Iterator<Item = (u32, Vec3, Vec3)> + '_ {
         (0..BVH_WIDTH).filter_map(|j| {
-            let (lo, hi) = self.child_box(j);
-            self.child(j).map(|c| (c, lo, hi))
+            self.child(j).map(|c| {
+                let (lo, hi) = self.child_box(j);
+                (c, lo, hi)
+            })
         })
     }
 }
 
-/// origin + q·2^(byte − 127), as the GPU computes it: the product is exact, so fused (the GPU's
-/// `fma`) or not (here: `mul_add` is a library call on x86-64 without FMA) the sum is rounded once.
+/// origin + q·cell, as the GPU computes it: with a power-of-two cell the product is exact, so fused
+/// (the GPU's `fma`) or not (here: `mul_add` is a library call on x86-64 without FMA) the sum is
+/// rounded once.
 #[inline(always)]
-fn dequantise(q: u32, exponent_byte: u32, origin: f32) -> f32 {
-    q as f32 * f32::from_bits(exponent_byte << 23) + origin
+fn dequantise(q: u32, cell: f32, origin: f32) -> f32 {
+    q as f32 * cell + origin
 }

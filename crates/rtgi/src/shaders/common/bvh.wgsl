@@ -311,7 +311,7 @@ var<private> bvh_stack_node: array<u32, BVH_STACK_SIZE>;
 var<private> bvh_stack_t: array<f32, BVH_STACK_SIZE>;
 
 // The reference of a leaf's triangles after its first: first + 1, count − 1 (first < 2^29 − 1).
-fn node_ref_next(leaf: u32) -> u32 {
+fn bvh_leaf_rest(leaf: u32) -> u32 {
     return leaf + (1u << 3u) - 1u;
 }
 
@@ -365,7 +365,7 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
                 t_best = h.x;
                 hit = Hit(h.x, bitcast<u32>(bvh_tris[3u * first].w), h.y, h.z);
             }
-            current = node_ref_next(current);
+            current = bvh_leaf_rest(current);
             have_current = count > 1u;
             continue;
         }
@@ -429,7 +429,7 @@ fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
             if h.w != 0.0 && bvh_accept(first, h.y, h.z) {
                 return true;
             }
-            current = node_ref_next(current);
+            current = bvh_leaf_rest(current);
             have_current = count > 1u;
             continue;
         }
