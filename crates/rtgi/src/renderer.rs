@@ -25,7 +25,9 @@ use std::time::Instant;
 use glam::Mat4;
 use serde::Serialize;
 
-use crate::frame::{FRAME_UNIFORM_PARAMS, FrameResources, FrameView, OUTPUT_FORMAT, ShadowSettings};
+use crate::frame::{
+    FRAME_UNIFORM_PARAMS, FrameResources, FrameSettings, FrameView, OUTPUT_FORMAT, ShadowSettings,
+};
 use crate::gpu::{
     AdapterSummary, GpuContext, GpuError, GpuScene, MemoryReport, PassTiming, Profiler, TimeSummary,
     TimingMode, readback,
@@ -158,7 +160,10 @@ pub struct RenderStats {
     /// Process and GPU memory after frames 1, 10, 100, 1000, ... and at the end of the run: a steady
     /// renderer keeps them flat after warm-up.
     pub memory: Vec<MemorySample>,
-    /// Technique-specific counters (e.g. VPL counts, bytes per pixel).
+    /// How the G-buffer was made (`raster` or `trace`), for techniques that use one.
+    pub primary: Option<String>,
+    /// Technique-specific counters (e.g. VPL counts, bytes per pixel), and the G-buffer's
+    /// `gbuffer_bytes_per_pixel` for techniques that use one.
     pub counters: BTreeMap<String, f64>,
     /// What the GPU upload had to change (e.g. textures downsampled to the array size).
     pub warnings: Vec<String>,
@@ -300,7 +305,7 @@ impl Renderer {
                 &posed.scene,
                 settings.width,
                 settings.height,
-                ShadowSettings::from_params(&params),
+                FrameSettings::from_params(&params),
             )?;
             let output = output_texture(ctx, settings.width, settings.height)?;
             let technique = create_technique(ctx, &posed.scene, &gpu_scene, &frame, &output, info, &params)?;
@@ -599,7 +604,7 @@ impl Renderer {
                 &self.posed.scene,
                 width,
                 height,
-                ShadowSettings::from_params(&self.params),
+                FrameSettings::from_params(&self.params),
             )?;
             self.counters.frame_builds += 1;
             self.output = output_texture(&ctx, width, height)?;
@@ -625,18 +630,18 @@ impl Renderer {
     fn rebuild_technique(&mut self) -> Result<(), RenderError> {
         let ctx = self.ctx.clone();
         ctx.checked("creating the technique", || -> Result<(), RenderError> {
-            let shadows = ShadowSettings::from_params(&self.params);
-            let same_maps = match (shadows, self.frame.shadow_settings) {
+            let settings = FrameSettings::from_params(&self.params);
+            let same_maps = match (settings.shadows, self.frame.shadow_settings) {
                 (Some(a), Some(b)) => a.size == b.size,
                 (None, None) => true,
                 _ => false,
             };
-            if same_maps {
-                if let Some(s) = shadows {
+            if same_maps && settings.primary == self.frame.requested_primary {
+                if let Some(s) = settings.shadows {
                     self.frame.set_shadow_settings(s)?;
                 }
             } else {
-                self.rebuild_frame(&ctx, shadows)?;
+                self.rebuild_frame(&ctx, settings)?;
             }
             self.technique = self.new_technique()?;
             self.counters.technique_builds += 1;
@@ -644,13 +649,9 @@ impl Renderer {
         })?
     }
 
-    fn rebuild_frame(
-        &mut self,
-        ctx: &GpuContext,
-        shadows: Option<ShadowSettings>,
-    ) -> Result<(), RenderError> {
+    fn rebuild_frame(&mut self, ctx: &GpuContext, settings: FrameSettings) -> Result<(), RenderError> {
         let (w, h) = self.size();
-        self.frame = FrameResources::new(ctx, &self.gpu_scene, &self.posed.scene, w, h, shadows)?;
+        self.frame = FrameResources::new(ctx, &self.gpu_scene, &self.posed.scene, w, h, settings)?;
         self.counters.frame_builds += 1;
         Ok(())
     }
@@ -665,7 +666,7 @@ impl Renderer {
             self.uploaded_mesh_transforms.clone_from(&self.posed.mesh_transforms);
             self.counters.scene_uploads += 1;
             self.counters.bvh_builds += 1;
-            self.rebuild_frame(&ctx, ShadowSettings::from_params(&self.params))?;
+            self.rebuild_frame(&ctx, FrameSettings::from_params(&self.params))?;
             self.technique = self.new_technique()?;
             self.counters.technique_builds += 1;
             Ok(())
@@ -807,7 +808,12 @@ impl Renderer {
         let passes = self.profiler.timings();
         let frames = self.profiler.frames();
         let measured = Measured { passes: &passes, frames_wall_ms: self.profiler.wall_ms() };
-        let counters = self.technique.counters(&self.ctx, &measured)?;
+        let mut counters = self.technique.counters(&self.ctx, &measured)?;
+        let primary = self.info.needs.gbuffer.then(|| {
+            counters
+                .insert("gbuffer_bytes_per_pixel".into(), f64::from(self.frame.gbuffer_bytes_per_pixel()));
+            self.frame.primary.name().to_string()
+        });
         let timestamps = match self.profiler.timestamp_status() {
             Ok(()) => "reliable".to_string(),
             Err(why) => why,
@@ -839,6 +845,7 @@ impl Renderer {
             renderer: self.counters(),
             time: self.time,
             memory,
+            primary,
             counters,
             warnings,
         })

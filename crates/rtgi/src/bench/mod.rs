@@ -18,7 +18,7 @@ use std::time::Instant;
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
 
-use crate::gpu::{AdapterSummary, GpuContext, TimeSummary, TimingMode};
+use crate::gpu::{AdapterSummary, GpuContext, TimeSummary};
 use crate::image::{HdrImage, ToneMap};
 use crate::metrics;
 use crate::reference::{ReferenceRequest, reference};
@@ -98,6 +98,10 @@ pub struct PassResult {
     /// GPU (or, without usable timestamps, no) time of the pass per frame: mean per call × calls per
     /// frame.
     pub ms_per_frame: f64,
+    /// Wall time of the pass per frame (suites with `timing = "passes"`: each pass submitted alone and
+    /// waited for).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_ms_per_frame: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
@@ -208,10 +212,11 @@ fn timings(stats: &RenderStats) -> (Option<TimeSummary>, Option<TimeSummary>, Ve
         .passes
         .iter()
         .filter_map(|p| {
-            let per_call = p.gpu.map(|g| g.mean_ms)?;
+            let per_frame = |per_call: f64| per_call * f64::from(p.calls) / f64::from(stats.frames.max(1));
             Some(PassResult {
                 name: p.name.clone(),
-                ms_per_frame: per_call * f64::from(p.calls) / f64::from(stats.frames.max(1)),
+                ms_per_frame: per_frame(p.gpu?.mean_ms),
+                wall_ms_per_frame: p.steady_wall_ms.map(per_frame),
             })
         })
         .collect();
@@ -302,7 +307,7 @@ fn run_cell(
         technique_settings: cell.settings.clone(),
         width: cell.width,
         height: cell.height,
-        timing: TimingMode::Frame,
+        timing: suite.timing,
     };
     let mut result = CellResult {
         index: cell.index,

@@ -21,6 +21,8 @@ struct SuiteFile {
     #[serde(default = "default_frames")]
     frames: u32,
     error_frames: Option<u32>,
+    /// `frame` (default) or `passes`, as `rtgi render --timing`.
+    timing: Option<String>,
     reference: ReferenceFile,
     scenes: Vec<SceneFile>,
     techniques: Vec<TechniqueFile>,
@@ -77,6 +79,9 @@ pub struct Suite {
     pub frames: u32,
     /// How many of the measured frames are read back and compared with the reference.
     pub error_frames: u32,
+    /// How the cells' passes are submitted and timed: `passes` gives each pass a wall time (for
+    /// comparisons of passes whose GPU timestamps a driver gets wrong).
+    pub timing: crate::gpu::TimingMode,
     pub reference_spp: u32,
     pub scenes: Vec<SuiteScene>,
     pub cells: Vec<CellSpec>,
@@ -335,6 +340,10 @@ impl Suite {
                 }
             }
         }
+        let timing = match &file.timing {
+            Some(t) => t.parse().map_err(|e: String| format!("timing: {e}"))?,
+            None => crate::gpu::TimingMode::Frame,
+        };
         let mut h = StableHasher::default();
         h.str(text);
         Ok(Suite {
@@ -344,6 +353,7 @@ impl Suite {
             digest: format!("{:016x}", h.finish()),
             frames: file.frames,
             error_frames,
+            timing,
             reference_spp: file.reference.spp,
             scenes,
             cells,
@@ -465,6 +475,7 @@ warmup = 5
                 "igi-cost.toml",
                 "igi.toml",
                 "lpv.toml",
+                "primary.toml",
                 "quick.toml",
                 "rsm-timing.toml",
                 "rsm.toml",
@@ -478,6 +489,9 @@ warmup = 5
         let load = |name: &str| Suite::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
         // DDGI's cells converge their probes first; the other techniques of its suite do not need to.
         let ddgi = load("ddgi.toml");
+        // The G-buffer comparison times every pass alone (lavapipe's timestamps miss its ray cast).
+        assert_eq!(load("primary.toml").timing, crate::gpu::TimingMode::Passes);
+        assert_eq!(ddgi.timing, crate::gpu::TimingMode::Frame);
         assert!(ddgi.cells.iter().all(|c| (c.warmup == 100) == (c.technique == "ddgi")));
         let (igi, rsm) = (load("igi.toml"), load("rsm.toml"));
         let bumpy =

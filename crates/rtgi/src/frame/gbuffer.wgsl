@@ -1,16 +1,14 @@
-// Deferred G-buffer: one draw per mesh (instance_index = the mesh's index). Layout of the targets: see
-// common/frame.wgsl.
+// Deferred G-buffer by rasterisation: one draw per mesh (instance_index = the mesh's index). The texels
+// are common/gbuffer.wgsl's, as the ray-cast pass (gbuffer_trace.wgsl) writes them.
 
 #import common/raster.wgsl
-#import common/frame_uniforms.wgsl
+#import common/gbuffer.wgsl
 
-// The frame's uniforms, bound alone: the rest of the frame bind group is the G-buffer being drawn.
-@group(1) @binding(0) var<uniform> frame: FrameUniforms;
 // Per mesh: current world position -> the previous frame's (object motion; identity when static).
 @group(1) @binding(1) var<storage, read> mesh_motion: array<mat4x4f>;
 
-// SceneVertexOut's fields plus the motion inputs: entry-point IO cannot nest structs, so the shared
-// fields are listed again and reassembled into a SceneVertexOut in the fragment stage.
+// SceneVertexOut's fields plus the mesh: entry-point IO cannot nest structs, so the shared fields are
+// listed again and reassembled into a SceneVertexOut in the fragment stage.
 struct GBufferVertexOut {
     @builtin(position) clip: vec4f,
     @location(0) world: vec3f,
@@ -18,9 +16,7 @@ struct GBufferVertexOut {
     @location(2) tangent: vec4f,
     @location(3) uv: vec2f,
     @location(4) @interpolate(flat) material: u32,
-    // The vertex's clip position in the previous frame.
-    @location(5) prev_clip: vec4f,
-    @location(6) @interpolate(flat) mesh: u32,
+    @location(5) @interpolate(flat) mesh: u32,
 }
 
 @vertex
@@ -34,12 +30,9 @@ fn vs_main(
 ) -> GBufferVertexOut {
     var v = scene_vertex(frame.view_proj, Vertex(position, material_flags, normal_oct, tangent_oct, uv));
     // Shift the image by -jitter so that pixel centres sample centre + jitter, like primary rays. Motion
-    // stays unjittered: prev_clip below uses the previous view-projection as it is.
+    // stays unjittered: previous_pixel uses the previous view-projection as it is.
     v.clip = vec4f(v.clip.xy - vec2f(2.0, -2.0) * frame.jitter / vec2f(frame.size) * v.clip.w, v.clip.zw);
-    var out = GBufferVertexOut(v.clip, v.world, v.normal, v.tangent, v.uv, v.material, vec4f(0.0), 0u);
-    out.prev_clip = frame.prev_view_proj * (mesh_motion[mesh] * vec4f(position, 1.0));
-    out.mesh = mesh;
-    return out;
+    return GBufferVertexOut(v.clip, v.world, v.normal, v.tangent, v.uv, v.material, mesh);
 }
 
 struct GBufferOut {
@@ -60,12 +53,6 @@ fn texture_lod(uv: vec2f) -> f32 {
     return max(0.0, 0.5 * log2(max(dot(dx, dx), dot(dy, dy))));
 }
 
-// Framebuffer coordinates (pixels, y down) of a clip-space position.
-fn clip_to_pixel(clip: vec4f) -> vec2f {
-    let ndc = clip.xy / clip.w;
-    return vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * vec2f(frame.size);
-}
-
 @fragment
 fn fs_main(vertex: GBufferVertexOut) -> GBufferOut {
     let in = SceneVertexOut(vertex.clip, vertex.world, vertex.normal, vertex.tangent, vertex.uv, vertex.material);
@@ -77,14 +64,7 @@ fn fs_main(vertex: GBufferVertexOut) -> GBufferOut {
     }
     let to_camera = frame.camera_position - in.world;
     let normals = fragment_normals(in, m, to_camera, lod);
-    var out: GBufferOut;
-    out.albedo = vec4f(s.base_color, s.metallic);
-    out.normal = vec4f(oct_encode(normals.shading), oct_encode(normals.geometric));
-    out.material = vec2u(in.material, pack4x8unorm(vec4f(s.roughness, s.specular, 0.0, 0.0)));
-    out.emission = vec4f(s.emission, 1.0);
-    out.distance = length(to_camera);
-    // The previous position is interpolated in clip space (perspective-correct), then projected.
-    out.motion = clip_to_pixel(vertex.prev_clip) - in.clip.xy;
-    out.instance = vertex.mesh + 1u;
-    return out;
+    let motion = previous_pixel(mesh_motion[vertex.mesh], in.world) - in.clip.xy;
+    let t = gbuffer_texels(in.material, s, normals.shading, normals.geometric, length(to_camera), motion, vertex.mesh);
+    return GBufferOut(t.albedo, t.normal, t.material, t.emission, t.distance, t.motion, t.instance);
 }

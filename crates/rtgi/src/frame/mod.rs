@@ -5,7 +5,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
-use crate::gpu::resources::buffer_layout_entry;
+use crate::gpu::resources::{buffer_layout_entry, storage_texture_layout_entry};
 use crate::gpu::scene::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, shadow_layer_count};
 use crate::gpu::{GpuContext, GpuError, GpuScene, Profiler, TextureBuilder};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
@@ -151,6 +151,58 @@ impl ShadowSettings {
     }
 }
 
+/// How the G-buffer is made: both write the same texels (`common/gbuffer.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrimaryVisibility {
+    /// Rasterise the scene into the seven targets (one draw per mesh).
+    Raster,
+    /// Cast one ray per pixel through the BVH in a compute pass and store the targets.
+    Trace,
+}
+
+impl PrimaryVisibility {
+    pub fn name(self) -> &'static str {
+        match self {
+            PrimaryVisibility::Raster => "raster",
+            PrimaryVisibility::Trace => "trace",
+        }
+    }
+}
+
+/// The primary-visibility parameter, taken by every technique that renders a G-buffer.
+pub const PRIMARY_PARAM: ParamSpec = ParamSpec {
+    name: "primary",
+    kind: ParamKind::Choice(&["auto", "raster", "trace"]),
+    default: "auto",
+    doc: "how the G-buffer is made: rasterised, ray-cast through the BVH in compute, or auto (the faster \
+          on this kind of adapter, see docs/measurements/primary-*.md)",
+};
+
+/// What the frame resources are built with, from a technique's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameSettings {
+    /// `None`: no shadow maps.
+    pub shadows: Option<ShadowSettings>,
+    /// `None`: auto, resolved for the adapter by [`FrameResources::new`].
+    pub primary: Option<PrimaryVisibility>,
+}
+
+impl FrameSettings {
+    pub fn from_params(params: &ParamValues) -> Self {
+        let primary = match params.get(PRIMARY_PARAM.name) {
+            Some(crate::params::ParamValue::Choice(c)) if c == "raster" => Some(PrimaryVisibility::Raster),
+            Some(crate::params::ParamValue::Choice(c)) if c == "trace" => Some(PrimaryVisibility::Trace),
+            _ => None,
+        };
+        FrameSettings { shadows: ShadowSettings::from_params(params), primary }
+    }
+
+    /// No shadow maps, automatic primary visibility.
+    pub fn plain() -> Self {
+        FrameSettings { shadows: None, primary: None }
+    }
+}
+
 pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const MATERIAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Uint;
@@ -165,8 +217,8 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The radiance output of every technique.
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
-/// Bytes per pixel of the G-buffer (targets + depth).
-pub const GBUFFER_BYTES_PER_PIXEL: u32 = 8 + 8 + 8 + 8 + 4 + 8 + 4 + 4;
+/// Bytes per pixel of the G-buffer's colour targets (the raster pass adds a 4-byte depth buffer).
+pub const GBUFFER_BYTES_PER_PIXEL: u32 = 8 + 8 + 8 + 8 + 4 + 8 + 4;
 
 pub(crate) const SHADOW_VIEW_STRIDE: u64 = 256;
 
@@ -178,7 +230,21 @@ pub struct GBuffer {
     pub distance: wgpu::Texture,
     pub motion: wgpu::Texture,
     pub instance: wgpu::Texture,
-    pub depth: wgpu::Texture,
+}
+
+impl GBuffer {
+    /// The colour targets in `GBufferOut` order.
+    fn targets(&self) -> [&wgpu::Texture; 7] {
+        [
+            &self.albedo,
+            &self.normal,
+            &self.material,
+            &self.emission,
+            &self.distance,
+            &self.motion,
+            &self.instance,
+        ]
+    }
 }
 
 /// Camera, G-buffer and shadow maps for one resolution and one set of shadow settings.
@@ -198,28 +264,98 @@ pub struct FrameResources {
     mesh_motion: wgpu::Buffer,
     /// What `mesh_motion` holds, so a static scene writes it once, not every frame.
     mesh_motion_written: Vec<Mat4>,
-    gbuffer_bind_group: wgpu::BindGroup,
-    gbuffer_pipeline: wgpu::RenderPipeline,
+    /// How the G-buffer is made (resolved from `requested_primary`).
+    pub primary: PrimaryVisibility,
+    /// The setting it was resolved from (`None`: auto).
+    pub requested_primary: Option<PrimaryVisibility>,
+    primary_pass: PrimaryPass,
     shadow_maps: wgpu::Texture,
     shadow_view_buffer: wgpu::Buffer,
     shadow_slots: ViewSlots,
     shadow_pipeline: Option<wgpu::RenderPipeline>,
     /// The [`GpuScene::lights_version`] and geometry the shadow maps were rendered for.
     shadows_rendered: Option<(u64, u64)>,
-    /// Render-target views of the G-buffer (in `GBufferOut` order) and its depth, made once.
-    gbuffer_targets: Vec<wgpu::TextureView>,
-    gbuffer_depth: wgpu::TextureView,
 }
 
-/// A G-buffer target: rendered, read by techniques and read back for AOVs.
+/// A G-buffer target: rendered (or stored by the ray-cast pass), read by techniques and read back for
+/// AOVs.
 fn target(
     ctx: &GpuContext,
     label: &str,
-    w: u32,
-    h: u32,
+    (w, h): (u32, u32),
     format: wgpu::TextureFormat,
+    primary: PrimaryVisibility,
 ) -> Result<wgpu::Texture, GpuError> {
-    TextureBuilder::d2(label, w, h, format).render().sampled().copy().build(ctx)
+    let builder = TextureBuilder::d2(label, w, h, format).sampled().copy();
+    match primary {
+        PrimaryVisibility::Raster => builder.render(),
+        PrimaryVisibility::Trace => builder.storage(),
+    }
+    .build(ctx)
+}
+
+/// The G-buffer's colour targets, in `GBufferOut` / binding order of the two G-buffer passes.
+const GBUFFER_TARGET_FORMATS: [wgpu::TextureFormat; 7] = [
+    ALBEDO_FORMAT,
+    NORMAL_FORMAT,
+    MATERIAL_FORMAT,
+    EMISSION_FORMAT,
+    DISTANCE_FORMAT,
+    MOTION_FORMAT,
+    INSTANCE_FORMAT,
+];
+
+/// Why the ray-cast G-buffer cannot run on this device (`None`: it can).
+fn trace_unsupported(ctx: &GpuContext) -> Option<String> {
+    let storage_textures = ctx.limits().max_storage_textures_per_shader_stage;
+    if storage_textures < GBUFFER_TARGET_FORMATS.len() as u32 {
+        return Some(format!(
+            "max_storage_textures_per_shader_stage is {storage_textures}, the ray-cast G-buffer stores {}",
+            GBUFFER_TARGET_FORMATS.len()
+        ));
+    }
+    let lacking: Vec<String> = GBUFFER_TARGET_FORMATS
+        .iter()
+        .filter(|f| {
+            !ctx.adapter
+                .get_texture_format_features(**f)
+                .allowed_usages
+                .contains(wgpu::TextureUsages::STORAGE_BINDING)
+        })
+        .map(|f| format!("{f:?}"))
+        .collect();
+    (!lacking.is_empty()).then(|| format!("no storage use of {}", lacking.join(", ")))
+}
+
+/// `primary=auto`: the faster G-buffer pass on this kind of adapter, where it can run.
+fn automatic_primary(ctx: &GpuContext) -> PrimaryVisibility {
+    if trace_unsupported(ctx).is_some() {
+        return PrimaryVisibility::Raster;
+    }
+    // docs/measurements/primary-lavapipe.md: llvmpipe rasterises the seven targets 1.8-5x faster than
+    // it casts the rays, except on the 1.4 M-triangle atrium at small sizes. On GPUs, rtgi's raster
+    // G-buffer cost 2.5-7 ms at 1080p on an H100 (research/platform.md), several times what a primary
+    // ray per pixel costs at the BVH's measured rates there.
+    if ctx.adapter.get_info().device_type == wgpu::DeviceType::Cpu {
+        PrimaryVisibility::Raster
+    } else {
+        PrimaryVisibility::Trace
+    }
+}
+
+/// How the G-buffer is drawn: the raster pipeline with its depth buffer and target views, or the
+/// ray-cast compute pipeline with the targets bound as storage.
+enum PrimaryPass {
+    Raster {
+        pipeline: wgpu::RenderPipeline,
+        bind_group: wgpu::BindGroup,
+        targets: Vec<wgpu::TextureView>,
+        depth: wgpu::TextureView,
+    },
+    Trace {
+        pipeline: wgpu::ComputePipeline,
+        bind_group: wgpu::BindGroup,
+    },
 }
 
 fn any_perpendicular(d: Vec3) -> Vec3 {
@@ -503,6 +639,150 @@ pub(crate) fn draw_scene(
     }
 }
 
+/// Workgroup edge of the ray-cast G-buffer pass (`TILE` in gbuffer_trace.wgsl).
+const PRIMARY_TILE: u32 = 8;
+
+fn shader_error(e: impl std::fmt::Display) -> GpuError {
+    GpuError::Other(e.to_string())
+}
+
+/// The raster G-buffer pass: the frame uniforms and the mesh motion in bind group 1, one draw per mesh.
+fn raster_primary_pass(
+    ctx: &GpuContext,
+    gpu_scene: &GpuScene,
+    gbuffer: &GBuffer,
+    uniforms: &wgpu::Buffer,
+    mesh_motion: &wgpu::Buffer,
+) -> Result<PrimaryPass, GpuError> {
+    let device = &ctx.device;
+    let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("gbuffer frame"),
+        entries: &[
+            buffer_layout_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT, wgpu::BufferBindingType::Uniform),
+            buffer_layout_entry(
+                1,
+                wgpu::ShaderStages::FRAGMENT,
+                wgpu::BufferBindingType::Storage { read_only: true },
+            ),
+        ],
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("gbuffer frame"),
+        layout: &group_layout,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: mesh_motion.as_entire_binding() },
+        ],
+    });
+    let module = shaders::create_module(ctx, "gbuffer", include_str!("gbuffer.wgsl"), &Defines::new())
+        .map_err(shader_error)?;
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("gbuffer"),
+        bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&group_layout)],
+        immediate_size: 0,
+    });
+    let colors: Vec<_> = GBUFFER_TARGET_FORMATS
+        .iter()
+        .map(|&format| {
+            Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })
+        })
+        .collect();
+    let pipeline = scene_raster_pipeline(device, "gbuffer", &layout, &module, &colors);
+    let (width, height) = (gbuffer.albedo.width(), gbuffer.albedo.height());
+    let depth = TextureBuilder::d2("gbuffer depth", width, height, DEPTH_FORMAT).render().build(ctx)?;
+    Ok(PrimaryPass::Raster {
+        pipeline,
+        bind_group,
+        targets: gbuffer.targets().iter().map(|t| t.create_view(&Default::default())).collect(),
+        depth: depth.create_view(&Default::default()),
+    })
+}
+
+/// (first triangle, mesh) of every non-empty mesh, ordered by first triangle (the ray-cast pass's
+/// binary search from a hit triangle to its mesh).
+fn mesh_starts(mesh_ranges: &[std::ops::Range<u32>]) -> Vec<[u32; 2]> {
+    let mut starts: Vec<[u32; 2]> = mesh_ranges
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| !r.is_empty())
+        .map(|(mesh, r)| [r.start / 3, mesh as u32])
+        .collect();
+    starts.sort_unstable();
+    if starts.is_empty() {
+        starts.push([0, 0]);
+    }
+    starts
+}
+
+/// The ray-cast G-buffer pass: the frame uniforms, mesh motion, mesh starts and the targets as storage
+/// textures in bind group 1.
+fn trace_primary_pass(
+    ctx: &GpuContext,
+    gpu_scene: &GpuScene,
+    gbuffer: &GBuffer,
+    uniforms: &wgpu::Buffer,
+    mesh_motion: &wgpu::Buffer,
+) -> Result<PrimaryPass, GpuError> {
+    let device = &ctx.device;
+    let compute = wgpu::ShaderStages::COMPUTE;
+    let storage = wgpu::BufferBindingType::Storage { read_only: true };
+    let mut entries = vec![
+        buffer_layout_entry(0, compute, wgpu::BufferBindingType::Uniform),
+        buffer_layout_entry(1, compute, storage),
+        buffer_layout_entry(2, compute, storage),
+    ];
+    entries.extend(GBUFFER_TARGET_FORMATS.iter().enumerate().map(|(i, &format)| {
+        storage_texture_layout_entry(
+            3 + i as u32,
+            format,
+            wgpu::StorageTextureAccess::WriteOnly,
+            wgpu::TextureViewDimension::D2,
+        )
+    }));
+    let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("gbuffer trace"),
+        entries: &entries,
+    });
+    let starts = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("mesh starts"),
+        contents: bytemuck::cast_slice(&mesh_starts(&gpu_scene.mesh_ranges)),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let views: Vec<wgpu::TextureView> =
+        gbuffer.targets().iter().map(|t| t.create_view(&Default::default())).collect();
+    let mut group_entries = vec![
+        wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() },
+        wgpu::BindGroupEntry { binding: 1, resource: mesh_motion.as_entire_binding() },
+        wgpu::BindGroupEntry { binding: 2, resource: starts.as_entire_binding() },
+    ];
+    group_entries.extend(views.iter().enumerate().map(|(i, v)| wgpu::BindGroupEntry {
+        binding: 3 + i as u32,
+        resource: wgpu::BindingResource::TextureView(v),
+    }));
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("gbuffer trace"),
+        layout: &group_layout,
+        entries: &group_entries,
+    });
+    let defines = gpu_scene.bvh_defines(Defines::new().u32("TILE", PRIMARY_TILE));
+    let module = shaders::create_module(ctx, "gbuffer trace", include_str!("gbuffer_trace.wgsl"), &defines)
+        .map_err(shader_error)?;
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("gbuffer trace"),
+        bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&group_layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("gbuffer trace"),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    Ok(PrimaryPass::Trace { pipeline, bind_group })
+}
+
 impl FrameResources {
     pub fn new(
         ctx: &GpuContext,
@@ -510,9 +790,22 @@ impl FrameResources {
         scene: &Scene,
         width: u32,
         height: u32,
-        shadows: Option<ShadowSettings>,
+        settings: FrameSettings,
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
+        let (shadows, requested_primary) = (settings.shadows, settings.primary);
+        let primary = match requested_primary {
+            Some(PrimaryVisibility::Trace) => {
+                if let Some(why) = trace_unsupported(ctx) {
+                    return Err(GpuError::Other(format!(
+                        "primary=trace is not available on this device: {why}"
+                    )));
+                }
+                PrimaryVisibility::Trace
+            }
+            Some(PrimaryVisibility::Raster) => PrimaryVisibility::Raster,
+            None => automatic_primary(ctx),
+        };
         let max = ctx.limits().max_texture_dimension_2d;
         if width > max || height > max {
             return Err(GpuError::OverLimit(format!(
@@ -554,15 +847,15 @@ impl FrameResources {
             contents: bytemuck::bytes_of(&uniforms),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
+        let size = (width, height);
         let gbuffer = GBuffer {
-            albedo: target(ctx, "gbuffer albedo", width, height, ALBEDO_FORMAT)?,
-            normal: target(ctx, "gbuffer normal", width, height, NORMAL_FORMAT)?,
-            material: target(ctx, "gbuffer material", width, height, MATERIAL_FORMAT)?,
-            emission: target(ctx, "gbuffer emission", width, height, EMISSION_FORMAT)?,
-            distance: target(ctx, "gbuffer distance", width, height, DISTANCE_FORMAT)?,
-            motion: target(ctx, "gbuffer motion", width, height, MOTION_FORMAT)?,
-            instance: target(ctx, "gbuffer instance", width, height, INSTANCE_FORMAT)?,
-            depth: target(ctx, "gbuffer depth", width, height, DEPTH_FORMAT)?,
+            albedo: target(ctx, "gbuffer albedo", size, ALBEDO_FORMAT, primary)?,
+            normal: target(ctx, "gbuffer normal", size, NORMAL_FORMAT, primary)?,
+            material: target(ctx, "gbuffer material", size, MATERIAL_FORMAT, primary)?,
+            emission: target(ctx, "gbuffer emission", size, EMISSION_FORMAT, primary)?,
+            distance: target(ctx, "gbuffer distance", size, DISTANCE_FORMAT, primary)?,
+            motion: target(ctx, "gbuffer motion", size, MOTION_FORMAT, primary)?,
+            instance: target(ctx, "gbuffer instance", size, INSTANCE_FORMAT, primary)?,
         };
         let shadow_maps = TextureBuilder::d2_array(
             "shadow maps",
@@ -594,19 +887,6 @@ impl FrameResources {
             ..Default::default()
         });
 
-        let gbuffer_targets: Vec<wgpu::TextureView> = [
-            &gbuffer.albedo,
-            &gbuffer.normal,
-            &gbuffer.material,
-            &gbuffer.emission,
-            &gbuffer.distance,
-            &gbuffer.motion,
-            &gbuffer.instance,
-        ]
-        .iter()
-        .map(|t| t.create_view(&Default::default()))
-        .collect();
-        let gbuffer_depth = gbuffer.depth.create_view(&Default::default());
         let bind_group_layout = frame_layout(device);
         let texture_view = |t: &wgpu::Texture| t.create_view(&Default::default());
         let shadow_array_view = shadow_maps.create_view(&wgpu::TextureViewDescriptor {
@@ -655,58 +935,20 @@ impl FrameResources {
             ],
         });
 
-        // G-buffer pipeline.
         // Per mesh, the matrix from its current world position to the previous frame's (object motion).
         let mesh_motion = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("mesh motion"),
             contents: bytemuck::cast_slice(&vec![Mat4::IDENTITY; gpu_scene.mesh_ranges.len().max(1)]),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
-        let gbuffer_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("gbuffer frame"),
-            entries: &[
-                buffer_layout_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT, wgpu::BufferBindingType::Uniform),
-                buffer_layout_entry(
-                    1,
-                    wgpu::ShaderStages::VERTEX,
-                    wgpu::BufferBindingType::Storage { read_only: true },
-                ),
-            ],
-        });
-        // The frame uniforms (the same buffer as bind group 1 of techniques) and the mesh motion.
-        let gbuffer_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("gbuffer frame"),
-            layout: &gbuffer_group_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: uniform_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: mesh_motion.as_entire_binding() },
-            ],
-        });
-        let gbuffer_module =
-            shaders::create_module(ctx, "gbuffer", include_str!("gbuffer.wgsl"), &Defines::new())
-                .map_err(|e| GpuError::Other(e.to_string()))?;
-        let gbuffer_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("gbuffer"),
-            bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&gbuffer_group_layout)],
-            immediate_size: 0,
-        });
-        let color =
-            |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
-        let gbuffer_pipeline = scene_raster_pipeline(
-            device,
-            "gbuffer",
-            &gbuffer_layout,
-            &gbuffer_module,
-            &[
-                color(ALBEDO_FORMAT),
-                color(NORMAL_FORMAT),
-                color(MATERIAL_FORMAT),
-                color(EMISSION_FORMAT),
-                color(DISTANCE_FORMAT),
-                color(MOTION_FORMAT),
-                color(INSTANCE_FORMAT),
-            ],
-        );
+        let primary_pass = match primary {
+            PrimaryVisibility::Raster => {
+                raster_primary_pass(ctx, gpu_scene, &gbuffer, &uniform_buffer, &mesh_motion)?
+            }
+            PrimaryVisibility::Trace => {
+                trace_primary_pass(ctx, gpu_scene, &gbuffer, &uniform_buffer, &mesh_motion)?
+            }
+        };
 
         // Shadow pipeline (only when shadow maps are in use).
         let shadow_layout = uniform_layout(device, true);
@@ -739,16 +981,23 @@ impl FrameResources {
             bind_group,
             mesh_motion,
             mesh_motion_written: vec![Mat4::IDENTITY; gpu_scene.mesh_ranges.len()],
-            gbuffer_bind_group,
-            gbuffer_pipeline,
+            primary,
+            requested_primary,
+            primary_pass,
             shadow_maps,
             shadow_view_buffer,
             shadow_slots,
             shadow_pipeline,
             shadows_rendered: None,
-            gbuffer_targets,
-            gbuffer_depth,
         })
+    }
+
+    /// Bytes per pixel of the G-buffer as made: its targets, and the raster pass's depth buffer.
+    pub fn gbuffer_bytes_per_pixel(&self) -> u32 {
+        match self.primary {
+            PrimaryVisibility::Raster => GBUFFER_BYTES_PER_PIXEL + 4,
+            PrimaryVisibility::Trace => GBUFFER_BYTES_PER_PIXEL,
+        }
     }
 
     /// Writes this frame's view data (camera, previous camera, counters, time, history) and `seed`.
@@ -841,17 +1090,30 @@ impl FrameResources {
             }
             self.shadows_rendered = Some(state);
         }
-        profiler.pass(ctx, "gbuffer", |encoder| {
-            let attachments: Vec<_> = self.gbuffer_targets.iter().map(cleared_target).collect();
-            draw_scene(
-                encoder,
-                "gbuffer",
-                &attachments,
-                &self.gbuffer_depth,
-                &self.gbuffer_pipeline,
-                (scene, Draws::PerMesh),
-                (&self.gbuffer_bind_group, &[]),
-            );
+        let (width, height) = (self.width, self.height);
+        profiler.pass(ctx, "gbuffer", |encoder| match &self.primary_pass {
+            PrimaryPass::Raster { pipeline, bind_group, targets, depth } => {
+                let attachments: Vec<_> = targets.iter().map(cleared_target).collect();
+                draw_scene(
+                    encoder,
+                    "gbuffer",
+                    &attachments,
+                    depth,
+                    pipeline,
+                    (scene, Draws::PerMesh),
+                    (bind_group, &[]),
+                );
+            }
+            PrimaryPass::Trace { pipeline, bind_group } => {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("gbuffer trace"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &scene.bind_group, &[]);
+                pass.set_bind_group(1, bind_group, &[]);
+                pass.dispatch_workgroups(width.div_ceil(PRIMARY_TILE), height.div_ceil(PRIMARY_TILE), 1);
+            }
         })?;
         Ok(())
     }
@@ -865,6 +1127,35 @@ mod tests {
     #[test]
     fn gbuffer_shader_validates() {
         validate("gbuffer", include_str!("gbuffer.wgsl"), &Defines::new());
+    }
+
+    /// Meshes uploaded out of scene order (moving meshes after the static ones) and empty meshes: the
+    /// table is ordered by first triangle, skips empty meshes, and its search finds every triangle's mesh.
+    #[test]
+    fn mesh_starts_find_every_triangles_mesh() {
+        let ranges = [6..12, 0..0, 0..6, 12..21];
+        let starts = super::mesh_starts(&ranges);
+        assert_eq!(starts, vec![[0, 2], [2, 0], [4, 3]]);
+        // The WGSL binary search (gbuffer_trace.wgsl, mesh_of_triangle), step for step.
+        let mesh_of = |triangle: u32| {
+            let (mut lo, mut hi) = (0usize, starts.len());
+            while hi - lo > 1 {
+                let mid = (lo + hi) / 2;
+                if starts[mid][0] <= triangle { lo = mid } else { hi = mid }
+            }
+            starts[lo][1]
+        };
+        for (mesh, range) in ranges.iter().enumerate() {
+            for triangle in range.start / 3..range.end / 3 {
+                assert_eq!(mesh_of(triangle), mesh as u32, "triangle {triangle}");
+            }
+        }
+        assert_eq!(super::mesh_starts(&[]), vec![[0, 0]]);
+    }
+
+    #[test]
+    fn gbuffer_trace_shader_validates() {
+        validate("gbuffer trace", include_str!("gbuffer_trace.wgsl"), &Defines::new().u32("TILE", 8));
     }
 
     /// The adapter check (`gpu::context::REQUIRED_FORMAT_USAGES`, a layer below, which cannot name these

@@ -1,7 +1,7 @@
 //! A technique's surroundings for unit tests: a device, a built-in scene on it, frame resources whose
 //! G-buffer and shadow maps are rendered, and an output texture.
 
-use crate::frame::{FrameResources, OUTPUT_FORMAT, ShadowSettings};
+use crate::frame::{FrameResources, FrameSettings, OUTPUT_FORMAT, ShadowSettings};
 use crate::gpu::{GpuContext, GpuOptions, GpuScene, Profiler, TimingMode};
 use crate::params::ParamValues;
 
@@ -32,7 +32,15 @@ pub fn fixture_of(scene: crate::scene::Scene, w: u32, h: u32) -> Fixture {
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let gpu_scene = GpuScene::new(&ctx, &scene).expect("upload");
     let shadows = ShadowSettings { size: 256, filter_radius: 1, depth_bias: 1e-4, normal_offset: 1.5 };
-    let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, Some(shadows)).expect("frame");
+    let mut frame = FrameResources::new(
+        &ctx,
+        &gpu_scene,
+        &scene,
+        w,
+        h,
+        FrameSettings { shadows: Some(shadows), primary: None },
+    )
+    .expect("frame");
     let view = frame.view;
     frame.set_view(&ctx, &view, 0);
     frame.render_inputs(&ctx, &gpu_scene, &mut Profiler::new(&ctx, TimingMode::Passes)).expect("gbuffer");

@@ -12,7 +12,7 @@ struct ShadowView {
     params: vec4f,
 }
 
-@group(1) @binding(0) var<uniform> frame: FrameUniforms;
+// Binding 0 is `frame` (common/frame_uniforms.wgsl).
 // base colour (rgb), metallic (a)
 @group(1) @binding(1) var gb_albedo: texture_2d<f32>;
 // shading normal (xy, octahedral), geometric normal (zw, octahedral)
@@ -35,19 +35,6 @@ struct ShadowView {
 // (the first sample replaces whatever the output held).
 fn accumulate_mean(previous_mean: vec3f, sample: vec3f, n: u32) -> vec3f {
     return select(mix(previous_mean, sample, 1.0 / (f32(n) + 1.0)), sample, n == 0u);
-}
-
-// Unit direction of the primary ray through framebuffer position `xy` (pixels, y down, unjittered).
-fn primary_ray_through(xy: vec2f) -> vec3f {
-    let ndc = vec2f(xy.x / f32(frame.size.x) * 2.0 - 1.0, 1.0 - xy.y / f32(frame.size.y) * 2.0);
-    let p = frame.inv_view_proj * vec4f(ndc, 0.5, 1.0);
-    return normalize(p.xyz / p.w - frame.camera_position);
-}
-
-// Unit direction of the primary ray of `pixel`: through its centre plus this frame's jitter, where
-// the G-buffer samples it too.
-fn primary_ray_direction(pixel: vec2u) -> vec3f {
-    return primary_ray_through(vec2f(pixel) + 0.5 + frame.jitter);
 }
 
 // A G-buffer texel decoded.

@@ -1,6 +1,7 @@
 // The per-frame uniforms (`FrameUniforms` in frame/mod.rs): camera, previous camera, counters, time,
-// shadow settings. A module of its own so that passes which cannot bind the G-buffer (the G-buffer pass
-// itself) read the same uniforms.
+// shadow settings, bound at group 1, binding 0 in every pass, and the camera rays derived from them. A
+// module of its own so that passes which cannot bind the G-buffer (the G-buffer passes themselves) read
+// the same uniforms and trace the same primary rays.
 
 struct FrameUniforms {
     view_proj: mat4x4f,
@@ -25,4 +26,25 @@ struct FrameUniforms {
     delta_time: f32,
     // 1 when last frame's history may be reused (no cut, parameter change or resize since).
     history_valid: u32,
+}
+
+@group(1) @binding(0) var<uniform> frame: FrameUniforms;
+
+// Unit direction of the primary ray through framebuffer position `xy` (pixels, y down, unjittered).
+fn primary_ray_through(xy: vec2f) -> vec3f {
+    let ndc = vec2f(xy.x / f32(frame.size.x) * 2.0 - 1.0, 1.0 - xy.y / f32(frame.size.y) * 2.0);
+    let p = frame.inv_view_proj * vec4f(ndc, 0.5, 1.0);
+    return normalize(p.xyz / p.w - frame.camera_position);
+}
+
+// Unit direction of the primary ray of `pixel`: through its centre plus this frame's jitter, where
+// the G-buffer samples it too.
+fn primary_ray_direction(pixel: vec2u) -> vec3f {
+    return primary_ray_through(vec2f(pixel) + 0.5 + frame.jitter);
+}
+
+// Framebuffer coordinates (pixels, y down) of a clip-space position.
+fn clip_to_pixel(clip: vec4f) -> vec2f {
+    let ndc = clip.xy / clip.w;
+    return vec2f(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * vec2f(frame.size);
 }

@@ -199,8 +199,14 @@ fn triangle_uv(triangle: u32, u: f32, v: f32) -> vec2f {
     return t[0].uv * (1.0 - u - v) + t[1].uv * u + t[2].uv * v;
 }
 
-// Reconstructs the surface at barycentrics (u, v) of `triangle`, seen along `dir`.
+// Reconstructs the surface at barycentrics (u, v) of `triangle`, seen along `dir`, with textures read
+// at their finest level (secondary hits carry no footprint).
 fn surface_at(triangle: u32, u: f32, v: f32, dir: vec3f) -> SurfaceHit {
+    return surface_at_lod(triangle, u, v, dir, 0.0);
+}
+
+// surface_at with the textures read at mip level `lod`.
+fn surface_at_lod(triangle: u32, u: f32, v: f32, dir: vec3f, lod: f32) -> SurfaceHit {
     let t = triangle_vertices(triangle);
     let w = 1.0 - u - v;
     var s: SurfaceHit;
@@ -211,7 +217,7 @@ fn surface_at(triangle: u32, u: f32, v: f32, dir: vec3f) -> SurfaceHit {
     s.uv = t[0].uv * w + t[1].uv * u + t[2].uv * v;
     s.material_index = vertex_material(t[0]);
     let m = materials[s.material_index];
-    s.material = material_at(m, s.uv, 0.0);
+    s.material = material_at(m, s.uv, lod);
     // rtgi shades both sides of every surface: flip both normals to face the viewer.
     if dot(ng, dir) > 0.0 {
         ng = -ng;
@@ -219,7 +225,7 @@ fn surface_at(triangle: u32, u: f32, v: f32, dir: vec3f) -> SurfaceHit {
     if dot(n, ng) < 0.0 {
         n = -n;
     }
-    s.normal = perturb_normal(m, n, vec4f(tangent.xyz, select(-1.0, 1.0, tangent.w >= 0.0)), s.uv, 0.0);
+    s.normal = perturb_normal(m, n, vec4f(tangent.xyz, select(-1.0, 1.0, tangent.w >= 0.0)), s.uv, lod);
     s.geometric_normal = ng;
     return s;
 }

@@ -28,7 +28,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Quat, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
-use crate::frame::{GBUFFER_BYTES_PER_PIXEL, OUTPUT_FORMAT};
+use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::features::{Need, has};
 use crate::gpu::scene::{oct_decode, oct_encode};
 use crate::gpu::{GpuContext, Profiler, readback};
@@ -68,7 +68,7 @@ const BACKFACE_THRESHOLD: f32 = 0.25;
 /// How close to a surface relocation lets a probe stand, as a fraction of the smallest probe spacing.
 const MIN_SURFACE_DISTANCE: f32 = 0.1;
 
-const DDGI_PARAMS: [ParamSpec; 28] = with_direct_params![
+const DDGI_PARAMS: [ParamSpec; 29] = with_direct_params![
     ParamSpec {
         name: "probe_count",
         kind: ParamKind::GridCounts { min: 2, max: 64 },
@@ -1006,7 +1006,6 @@ impl Technique for Ddgi {
             ("distance_atlas_bytes".to_string(), self.distance.bytes() as f64),
             ("probe_ray_buffer_bytes".to_string(), self.ray_data.size() as f64),
             ("probe_state_bytes".to_string(), self.probe_states.size() as f64),
-            ("gbuffer_bytes_per_pixel".to_string(), f64::from(GBUFFER_BYTES_PER_PIXEL)),
             ("direct_bytes_per_pixel".to_string(), 16.0),
             ("reflection_bytes_per_pixel".to_string(), if self.reflection.width() > 1 { 16.0 } else { 0.0 }),
             ("output_bytes_per_pixel".to_string(), 16.0),

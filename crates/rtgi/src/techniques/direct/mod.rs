@@ -2,7 +2,7 @@
 //! ray-traced sampling of emissive triangles and the environment. It is the baseline every GI technique
 //! adds indirect light to, and the analytic tests check it against closed forms.
 
-use crate::frame::{OUTPUT_FORMAT, SHADOW_PARAMS};
+use crate::frame::{OUTPUT_FORMAT, PRIMARY_PARAM, SHADOW_PARAMS};
 use crate::gpu::Profiler;
 use crate::params::{ParamKind, ParamSpec};
 use crate::shaders::Defines;
@@ -12,7 +12,7 @@ use super::compute::{self, storage_texture_entry};
 use super::{FrameContext, FrameNeeds, Technique, TechniqueInfo, TechniqueSetup};
 
 /// The parameters of direct lighting, which every technique that adds indirect light to it also takes.
-pub const DIRECT_PARAMS: [ParamSpec; 7] = [
+pub const DIRECT_PARAMS: [ParamSpec; 8] = [
     SHADOW_PARAMS[0],
     SHADOW_PARAMS[1],
     SHADOW_PARAMS[2],
@@ -35,6 +35,7 @@ pub const DIRECT_PARAMS: [ParamSpec; 7] = [
         default: "0",
         doc: "random seed",
     },
+    PRIMARY_PARAM,
 ];
 
 /// A technique's parameter array: [`DIRECT_PARAMS`] followed by the technique's own, for techniques that
@@ -49,6 +50,7 @@ macro_rules! with_direct_params {
             $crate::techniques::direct::DIRECT_PARAMS[4],
             $crate::techniques::direct::DIRECT_PARAMS[5],
             $crate::techniques::direct::DIRECT_PARAMS[6],
+            $crate::techniques::direct::DIRECT_PARAMS[7],
             $($extra,)*
         ]
     };
@@ -153,11 +155,8 @@ impl Technique for Direct {
         _ctx: &crate::gpu::GpuContext,
         _: &super::Measured,
     ) -> Result<std::collections::BTreeMap<String, f64>, RenderError> {
-        // Per-pixel memory: the shared G-buffer plus the f32 radiance output.
-        Ok(std::collections::BTreeMap::from([
-            ("gbuffer_bytes_per_pixel".to_string(), f64::from(crate::frame::GBUFFER_BYTES_PER_PIXEL)),
-            ("output_bytes_per_pixel".to_string(), 16.0),
-        ]))
+        // Per-pixel memory beside the shared G-buffer (which the renderer reports): the f32 output.
+        Ok(std::collections::BTreeMap::from([("output_bytes_per_pixel".to_string(), 16.0)]))
     }
 
     // Lights, shadow maps and the environment are read from the scene every frame.

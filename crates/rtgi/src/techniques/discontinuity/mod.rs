@@ -82,7 +82,7 @@ fn defines(vec4s: u32, s: &FilterSettings) -> Defines {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::FrameResources;
+    use crate::frame::{FrameResources, FrameSettings};
     use crate::gpu::{GpuContext, GpuOptions, GpuScene, readback};
     use crate::params::ParamValues;
     use crate::shaders::validate;
@@ -106,7 +106,8 @@ mod tests {
         let scene = crate::scene::builtin::build("cornell", &[]).expect("cornell");
         let gpu_scene = GpuScene::new(&ctx, &scene).expect("scene upload");
         let (w, h) = (48u32, 48u32);
-        let mut frame = FrameResources::new(&ctx, &gpu_scene, &scene, w, h, None).expect("frame");
+        let mut frame =
+            FrameResources::new(&ctx, &gpu_scene, &scene, w, h, FrameSettings::plain()).expect("frame");
         let mut profiler = Profiler::new(&ctx, crate::gpu::TimingMode::Passes);
         let view = frame.view;
         frame.set_view(&ctx, &view, 0);

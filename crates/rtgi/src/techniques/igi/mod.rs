@@ -92,7 +92,7 @@ macro_rules! igi_params {
     };
 }
 
-const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
+const IGI_PARAMS: [ParamSpec; 18] = igi_params!(
     ParamSpec {
         name: "filter_normals",
         kind: ParamKind::Bool,
@@ -107,7 +107,7 @@ const IGI_PARAMS: [ParamSpec; 17] = igi_params!(
     },
 );
 
-const IGI_SH_PARAMS: [ParamSpec; 15] = igi_params!();
+const IGI_SH_PARAMS: [ParamSpec; 16] = igi_params!();
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "igi",
@@ -623,7 +623,6 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     counters.insert("filtered_bytes_per_pixel".into(), if filter.is_some() { data_bytes } else { 0.0 });
     counters.insert("clamp_stats_bytes_per_pixel".into(), 16.0);
     counters.insert("direct_bytes_per_pixel".into(), if direct_raster { 16.0 } else { 0.0 });
-    counters.insert("gbuffer_bytes_per_pixel".into(), f64::from(crate::frame::GBUFFER_BYTES_PER_PIXEL));
     counters.insert("output_bytes_per_pixel".into(), 16.0);
     counters.insert("vpl_bytes".into(), (vpl_count * size_of::<GpuVpl>() as u64) as f64);
     Ok(Box::new(Igi {

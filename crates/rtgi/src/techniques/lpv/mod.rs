@@ -56,7 +56,7 @@ pub fn geometry_layout(multiple_bounces: bool) -> (u64, u64) {
     if multiple_bounces { (12, 2) } else { (8, 1) }
 }
 
-const LPV_PARAMS: [ParamSpec; 13] = with_direct_params!(
+const LPV_PARAMS: [ParamSpec; 14] = with_direct_params!(
     ParamSpec {
         name: "grid",
         kind: ParamKind::Int { min: 4, max: 128 },

@@ -67,7 +67,7 @@ const INTERLEAVE: ParamSpec = ParamSpec {
     doc: "interleaving pattern N×M: sub-buffers, sample subsets and the filter window",
 };
 
-const RSM_PARAMS: [ParamSpec; 13] = with_direct_params!(
+const RSM_PARAMS: [ParamSpec; 14] = with_direct_params!(
     RSM_SIZE,
     SAMPLES,
     R_MAX,
@@ -86,10 +86,10 @@ const RSM_PARAMS: [ParamSpec; 13] = with_direct_params!(
     },
 );
 
-const RSM_INTERLEAVED_PARAMS: [ParamSpec; 12] =
+const RSM_INTERLEAVED_PARAMS: [ParamSpec; 13] =
     with_direct_params!(RSM_SIZE, SAMPLES, R_MAX, WEIGHTING, INTERLEAVE,);
 
-const SII_PARAMS: [ParamSpec; 13] = with_direct_params!(
+const SII_PARAMS: [ParamSpec; 14] = with_direct_params!(
     RSM_SIZE,
     ParamSpec {
         name: "vpls",

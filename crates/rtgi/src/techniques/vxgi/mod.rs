@@ -67,7 +67,7 @@ pub const MAX_CLIPMAPS: usize = 4;
 /// at its mip 1 reads a voxel of 2 around the sample.
 const CLIP_MARGIN: f32 = 2.0;
 
-const VXGI_PARAMS: [ParamSpec; 18] = with_direct_params!(
+const VXGI_PARAMS: [ParamSpec; 19] = with_direct_params!(
     ParamSpec {
         name: "resolution",
         kind: ParamKind::Int { min: 16, max: 512 },
