@@ -95,8 +95,9 @@ pub struct ReferenceResult {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PassResult {
     pub name: String,
-    /// GPU (or, without usable timestamps, no) time of the pass per frame: mean per call × calls per
-    /// frame.
+    /// Time of the pass per frame (mean per call × calls per frame), from what the cell's frame times
+    /// come from: GPU timestamps, or without usable ones the pass's wall time (suites with
+    /// `timing = "passes"`; in `frame` timing a pass has no time of its own then and is left out).
     pub ms_per_frame: f64,
     /// Wall time of the pass per frame (suites with `timing = "passes"`: each pass submitted alone and
     /// waited for).
@@ -213,10 +214,11 @@ fn timings(stats: &RenderStats) -> (Option<TimeSummary>, Option<TimeSummary>, Ve
         .iter()
         .filter_map(|p| {
             let per_frame = |per_call: f64| per_call * f64::from(p.calls) / f64::from(stats.frames.max(1));
+            let wall_ms_per_frame = p.steady_wall_ms.map(per_frame);
             Some(PassResult {
                 name: p.name.clone(),
-                ms_per_frame: per_frame(p.gpu?.mean_ms),
-                wall_ms_per_frame: p.steady_wall_ms.map(per_frame),
+                ms_per_frame: p.gpu.map(|g| per_frame(g.mean_ms)).or(wall_ms_per_frame)?,
+                wall_ms_per_frame,
             })
         })
         .collect();
