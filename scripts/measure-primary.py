@@ -69,7 +69,7 @@ def main():
             values = [gbuffer_pass(c)[field] for b in benches for c in b.results["cells"]
                       if (c["scene"], c["width"], c["height"]) == (scene, w, h)
                       and c["settings"]["primary"] == primary
-                      and (field == "wall_ms_per_frame" or c["time_source"] == "gpu")]
+                      and (field == "wall_ms_per_frame" or c["timestamps"] == "reliable")]
             return f"{min(values):.2f}" if field == "ms_per_frame" and values else (min(values) if values else
                                                                                     "unreliable")
         cell = {p: next(c for c in cells if (c["scene"], c["width"], c["height"]) == (scene, w, h)

@@ -139,6 +139,9 @@ pub struct CellResult {
     pub frame_ms: Option<f64>,
     /// "gpu" or "wall": where `frame_ms` comes from.
     pub time_source: String,
+    /// "reliable", or why the GPU timestamps are not used (then passes carry wall times, if any).
+    #[serde(default)]
+    pub timestamps: String,
     /// Mean and 95th percentile over the measured frames.
     pub gpu_ms: Option<TimeSummary>,
     pub wall_ms: Option<TimeSummary>,
@@ -324,6 +327,7 @@ fn run_cell(
         adapter: ctx.summary.name.clone(),
         frame_ms: None,
         time_source: String::new(),
+        timestamps: String::new(),
         gpu_ms: None,
         wall_ms: None,
         passes: Vec::new(),
@@ -412,6 +416,7 @@ fn run_cell(
             (None, Some(w)) => (Some(w.mean_ms), "wall".into()),
             (None, None) => (None, String::new()),
         };
+        result.timestamps = stats.timestamps.clone();
         result.setup_ms = stats.setup_ms;
         if let Some(m) = stats.memory.last() {
             result.gpu_memory_bytes = m.report.gpu_buffer_bytes + m.report.gpu_texture_bytes;
