@@ -332,8 +332,8 @@ fn automatic_primary(ctx: &GpuContext) -> PrimaryVisibility {
     if trace_unsupported(ctx).is_some() {
         return PrimaryVisibility::Raster;
     }
-    // docs/measurements/primary-lavapipe.md: llvmpipe rasterises the seven targets 1.8-5x faster than
-    // it casts the rays, except on the 1.4 M-triangle atrium at small sizes. On GPUs, rtgi's raster
+    // docs/measurements/primary-lavapipe.md: llvmpipe rasterises the seven targets 1.3-4.9x faster than
+    // it casts the rays, except the 1.4 M-triangle atrium at 256x256 (there the rays win by 2.7x). On GPUs, rtgi's raster
     // G-buffer cost 2.5-7 ms at 1080p on an H100 (research/platform.md), several times what a primary
     // ray per pixel costs at the BVH's measured rates there.
     if ctx.adapter.get_info().device_type == wgpu::DeviceType::Cpu {
