@@ -79,11 +79,7 @@ def main():
         lines.append(
             f"| {scene} | {w}×{h} | {raster:.1f} | {trace:.1f} | {trace / raster:.2f} "
             f"| {best('raster', 'ms_per_frame')} | {best('trace', 'ms_per_frame')} | {between:.4f} |")
-    lines.append("")
-    doc = m.ROOT / "docs" / "measurements" / f"{args.doc}.md"
-    doc.write_text("\n".join(lines))
-    print("\n".join(lines))
-    m.log(SCRIPT, f"wrote {doc}")
+    m.write_doc(SCRIPT, args.doc, lines)
 
 
 if __name__ == "__main__":

@@ -113,11 +113,7 @@ def main():
         lines.append(
             f"| {scene} | {a[1]:.2f} | {b[0] / 1e6:.3f} | {a[0] / 1e6:.3f} | {a[0] / b[0]:.2f}× | {b[2]:.1f} "
             f"| {a[2]:.1f} | {b[3] / 2**20:.1f} | {a[3] / 2**20:.1f} |")
-    lines.append("")
-    doc = m.ROOT / "docs" / "measurements" / f"{args.doc}.md"
-    doc.write_text("\n".join(lines))
-    print("\n".join(lines))
-    m.log(SCRIPT, f"wrote {doc}")
+    m.write_doc(SCRIPT, args.doc, lines)
 
 
 if __name__ == "__main__":

@@ -239,6 +239,15 @@ def load_text(start, end):
                                     "than on an idle machine." if max(start, end) > cores + 0.5 else "."))
 
 
+def write_doc(script, name, lines):
+    """Writes docs/measurements/NAME.md from `lines` (a blank line appended) and prints it."""
+    text = "\n".join(lines + [""])
+    doc = ROOT / "docs" / "measurements" / f"{name}.md"
+    doc.write_text(text)
+    print(text)
+    log(script, f"wrote {doc}")
+
+
 def duration(seconds):
     return f"{int(seconds // 60)} min {int(seconds % 60)} s"
 
