@@ -7,6 +7,7 @@ pub mod bench;
 pub mod error;
 pub mod frame;
 pub mod gpu;
+pub mod hsh;
 pub mod image;
 pub mod metrics;
 pub mod montage;

@@ -7,13 +7,14 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The layer of each top-level module; a module may import its own layer and the ones below.
-const LAYERS: [(&str, u32); 19] = [
+const LAYERS: [(&str, u32); 20] = [
     ("error", 0),
     ("scene", 0),
     ("image", 0),
     ("montage", 0),
     ("params", 0),
     ("sh", 0),
+    ("hsh", 0),
     ("sequences", 0),
     ("metrics", 0),
     ("shaders", 1),
