@@ -97,6 +97,14 @@ fn uniform_only_parameters_rebuild_nothing_and_others_rebuild_the_technique() {
     // A new shadow-map size needs new frame resources.
     r.set_parameters(&[("shadow_map_size".into(), "256".into())]).expect("shadow-map size");
     assert_eq!(r.counters().frame_builds, before.frame_builds + 1);
+    // So does another G-buffer pass, and the stats name the one in use.
+    for (k, primary) in ["trace", "raster"].into_iter().enumerate() {
+        r.set_parameters(&[("shadow_map_size".into(), "256".into()), ("primary".into(), primary.into())])
+            .expect("primary visibility");
+        steps(&mut r, 1);
+        assert_eq!(r.counters().frame_builds, before.frame_builds + 2 + k as u32);
+        assert_eq!(r.stats().expect("stats").primary.as_deref(), Some(primary));
+    }
 }
 
 #[test]
