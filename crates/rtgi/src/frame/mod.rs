@@ -161,6 +161,9 @@ pub enum PrimaryVisibility {
 }
 
 impl PrimaryVisibility {
+    const ALL: [PrimaryVisibility; 2] = [PrimaryVisibility::Raster, PrimaryVisibility::Trace];
+
+    /// The value of [`PRIMARY_PARAM`] that asks for it.
     pub fn name(self) -> &'static str {
         match self {
             PrimaryVisibility::Raster => "raster",
@@ -189,9 +192,11 @@ pub struct FrameSettings {
 
 impl FrameSettings {
     pub fn from_params(params: &ParamValues) -> Self {
+        // Absent (a technique without a G-buffer) or `auto`: None.
         let primary = match params.get(PRIMARY_PARAM.name) {
-            Some(crate::params::ParamValue::Choice(c)) if c == "raster" => Some(PrimaryVisibility::Raster),
-            Some(crate::params::ParamValue::Choice(c)) if c == "trace" => Some(PrimaryVisibility::Trace),
+            Some(crate::params::ParamValue::Choice(c)) => {
+                PrimaryVisibility::ALL.into_iter().find(|p| p.name() == c)
+            }
             _ => None,
         };
         FrameSettings { shadows: ShadowSettings::from_params(params), primary }
@@ -316,9 +321,8 @@ fn trace_unsupported(ctx: &GpuContext) -> Option<String> {
     }
     let lacking: Vec<String> = GBUFFER_TARGET_FORMATS
         .iter()
-        .filter(|f| {
-            !ctx.adapter
-                .get_texture_format_features(**f)
+        .filter(|&&f| {
+            !crate::gpu::context::format_features_of(&ctx.adapter, f)
                 .allowed_usages
                 .contains(wgpu::TextureUsages::STORAGE_BINDING)
         })
@@ -333,9 +337,9 @@ fn automatic_primary(ctx: &GpuContext) -> PrimaryVisibility {
         return PrimaryVisibility::Raster;
     }
     // docs/measurements/primary-lavapipe.md: llvmpipe rasterises the seven targets 1.3-4.9x faster than
-    // it casts the rays, except the 1.4 M-triangle atrium at 256x256 (there the rays win by 2.7x). On GPUs, rtgi's raster
-    // G-buffer cost 2.5-7 ms at 1080p on an H100 (research/platform.md), several times what a primary
-    // ray per pixel costs at the BVH's measured rates there.
+    // it casts the rays, except the 1.4 M-triangle atrium at 256x256 (there the rays win by 2.7x). On
+    // GPUs, rtgi's raster G-buffer cost 2.5-7 ms at 1080p on an H100 (research/platform.md), several
+    // times what a primary ray per pixel costs at the BVH's measured rates there.
     if ctx.adapter.get_info().device_type == wgpu::DeviceType::Cpu {
         PrimaryVisibility::Raster
     } else {
@@ -639,8 +643,9 @@ pub(crate) fn draw_scene(
     }
 }
 
-/// Workgroup edge of the ray-cast G-buffer pass (`TILE` in gbuffer_trace.wgsl).
-const PRIMARY_TILE: u32 = 8;
+/// Workgroup edge of screen-space compute passes (passed to WGSL as `TILE`): the ray-cast G-buffer and
+/// the techniques' passes (`techniques::compute`).
+pub const TILE: u32 = 8;
 
 fn shader_error(e: impl std::fmt::Display) -> GpuError {
     GpuError::Other(e.to_string())
@@ -764,22 +769,13 @@ fn trace_primary_pass(
         layout: &group_layout,
         entries: &group_entries,
     });
-    let defines = gpu_scene.bvh_defines(Defines::new().u32("TILE", PRIMARY_TILE));
-    let module = shaders::create_module(ctx, "gbuffer trace", include_str!("gbuffer_trace.wgsl"), &defines)
-        .map_err(shader_error)?;
-    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("gbuffer trace"),
-        bind_group_layouts: &[Some(&gpu_scene.bind_group_layout), Some(&group_layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("gbuffer trace"),
-        layout: Some(&layout),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    let pipeline = crate::gpu::dispatch::compute_pipeline(
+        ctx,
+        "gbuffer trace",
+        include_str!("gbuffer_trace.wgsl"),
+        &gpu_scene.bvh_defines(Defines::new().u32("TILE", TILE)),
+        &[&gpu_scene.bind_group_layout, &group_layout],
+    )?;
     Ok(PrimaryPass::Trace { pipeline, bind_group })
 }
 
@@ -1105,14 +1101,13 @@ impl FrameResources {
                 );
             }
             PrimaryPass::Trace { pipeline, bind_group } => {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("gbuffer trace"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &scene.bind_group, &[]);
-                pass.set_bind_group(1, bind_group, &[]);
-                pass.dispatch_workgroups(width.div_ceil(PRIMARY_TILE), height.div_ceil(PRIMARY_TILE), 1);
+                crate::gpu::dispatch::compute_pass(
+                    encoder,
+                    "gbuffer trace",
+                    pipeline,
+                    &[&scene.bind_group, bind_group],
+                )
+                .dispatch_workgroups(width.div_ceil(TILE), height.div_ceil(TILE), 1);
             }
         })?;
         Ok(())

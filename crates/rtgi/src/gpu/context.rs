@@ -95,7 +95,10 @@ pub struct AdapterCapabilities<'a> {
 /// The capabilities of `adapter` the way a device created on it enforces them: its own per-format
 /// capabilities where it lacks WebGPU's format guarantees (GL, downlevel) or offers adapter-specific
 /// format features (which [`GpuContext::new`] requests), else WebGPU's guarantees.
-fn format_features_of(adapter: &wgpu::Adapter, format: wgpu::TextureFormat) -> wgpu::TextureFormatFeatures {
+pub(crate) fn format_features_of(
+    adapter: &wgpu::Adapter,
+    format: wgpu::TextureFormat,
+) -> wgpu::TextureFormatFeatures {
     let own = adapter.features().contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
         || !adapter
             .get_downlevel_capabilities()

@@ -18,22 +18,23 @@ pub fn workgroups_for(invocations: u32, workgroup_size: u32, max_per_dimension: 
     [x, y, 1]
 }
 
-/// The compute pipeline of `source`'s `main` with `layout` as group 0, compiled inside an error scope
-/// (a WGSL or layout error is returned, naming `name`). For the GPU layer's own kernels (mips, display);
-/// techniques build theirs through `techniques::compute`.
+/// The compute pipeline of `source`'s `main` with `layouts` as groups 0, 1, ..., compiled inside an
+/// error scope (a WGSL or layout error is returned, naming `name`). For the GPU and frame layers' own
+/// kernels (mips, display, the ray-cast G-buffer); techniques build theirs through
+/// `techniques::compute`.
 pub fn compute_pipeline(
     ctx: &super::GpuContext,
     name: &str,
     source: &str,
     defines: &crate::shaders::Defines,
-    layout: &wgpu::BindGroupLayout,
+    layouts: &[&wgpu::BindGroupLayout],
 ) -> Result<wgpu::ComputePipeline, super::GpuError> {
     ctx.checked(name, || -> Result<_, super::GpuError> {
         let module = crate::shaders::create_module(ctx, name, source, defines)
             .map_err(|e| super::GpuError::Other(e.to_string()))?;
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(name),
-            bind_group_layouts: &[Some(layout)],
+            bind_group_layouts: &layouts.iter().map(|l| Some(*l)).collect::<Vec<_>>(),
             immediate_size: 0,
         });
         Ok(ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

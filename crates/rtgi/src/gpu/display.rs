@@ -48,7 +48,7 @@ impl Display {
                 ),
             ],
         });
-        let pipeline = compute_pipeline(ctx, "display", KERNEL, &defines(), &layout)?;
+        let pipeline = compute_pipeline(ctx, "display", KERNEL, &defines(), &[&layout])?;
         let uniforms = BufferBuilder::new("display uniforms", 16).uniform().copy().build(ctx)?;
         let texture = display_texture(ctx, 1, 1)?;
         Ok(Display { pipeline, layout, uniforms, texture, bound: None, exposure_ev: None })

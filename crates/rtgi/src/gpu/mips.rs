@@ -217,7 +217,7 @@ fn create_pipeline(
             ),
         ],
     });
-    let pipeline = compute_pipeline(ctx, &name, &source, &defines, &layout)?;
+    let pipeline = compute_pipeline(ctx, &name, &source, &defines, &[&layout])?;
     Ok(MipPipeline { pipeline, layout })
 }
 

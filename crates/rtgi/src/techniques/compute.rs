@@ -5,8 +5,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::resources::{buffer_layout_entry, storage_texture_layout_entry, texture_layout_entry};
 use crate::shaders::{self, Defines, ShaderError};
 
-/// Workgroup edge of screen-space compute passes (passed to WGSL as `TILE`).
-pub const TILE: u32 = 8;
+pub use crate::frame::TILE;
 
 pub fn pipeline(
     ctx: &GpuContext,
