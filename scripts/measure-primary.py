@@ -9,7 +9,6 @@ Runs `rtgi bench benches/primary.toml` (`direct` with its ray-traced light sampl
 alone and waited for) --rounds times (default 2) and keeps each cell's fastest G-buffer pass. Options:
 --suite FILE, --size WxH (replaces the suite's sizes), --rounds N, --doc NAME, --allow-dirty.
 """
-import re
 import sys
 
 sys.dont_write_bytecode = True
@@ -30,17 +29,14 @@ def main():
     args, rtgi = m.suite_arguments(SCRIPT, "benches/primary.toml", "primary-lavapipe", __doc__.splitlines()[0],
                                    extra)
     out = m.scratch("primary")
-    suite = m.ROOT / args.suite
-    if args.size:
-        suite = out / f"primary-{args.size}.toml"
-        suite.write_text(re.sub(r"(?m)^sizes = .*$", f'sizes = ["{args.size}"]', (m.ROOT / args.suite).read_text()))
+    suite = m.suite_at_size(args.suite, args.size, out)
     start = m.load_average()
     benches = [m.Bench(rtgi, suite, out / f"round-{k}", images=True) for k in range(args.rounds)]
     commit, adapter = m.same_run(benches)
     cpu = adapter.get("device_type") == "Cpu"
     last = benches[-1]
     cells = last.results["cells"]
-    command = f"python3 scripts/{SCRIPT}" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+    command = m.command_line(SCRIPT)
     lines = [
         "# Primary visibility: rasterised against ray-cast G-buffer",
         "",
@@ -65,20 +61,24 @@ def main():
     ]
     keys = list(dict.fromkeys((c["scene"], c["width"], c["height"]) for c in cells))
     for scene, w, h in keys:
-        def best(primary, field):
-            values = [gbuffer_pass(c)[field] for b in benches for c in b.results["cells"]
-                      if (c["scene"], c["width"], c["height"]) == (scene, w, h)
-                      and c["settings"]["primary"] == primary
-                      and (field == "wall_ms_per_frame" or c["timestamps"] == "reliable")]
-            return f"{min(values):.2f}" if field == "ms_per_frame" and values else (min(values) if values else
-                                                                                    "unreliable")
-        cell = {p: next(c for c in cells if (c["scene"], c["width"], c["height"]) == (scene, w, h)
-                        and c["settings"]["primary"] == p) for p in ("raster", "trace")}
-        raster, trace = best("raster", "wall_ms_per_frame"), best("trace", "wall_ms_per_frame")
-        between = m.compare(rtgi, last.image(cell["raster"]), last.image(cell["trace"]))["flip"]
+        def of(results, primary):
+            (c,) = [c for c in results["cells"] if (c["scene"], c["width"], c["height"]) == (scene, w, h)
+                    and c["settings"]["primary"] == primary]
+            return c
+
+        def wall(primary):
+            return min(gbuffer_pass(of(b.results, primary))["wall_ms_per_frame"] for b in benches)
+
+        def timestamps(primary):
+            timed = [of(b.results, primary) for b in benches]
+            timed = [gbuffer_pass(c)["ms_per_frame"] for c in timed if c["timestamps"] == "reliable"]
+            return f"{min(timed):.2f}" if timed else "unreliable"
+
+        raster, trace = wall("raster"), wall("trace")
+        between = m.compare(rtgi, last.image(of(last.results, "raster")), last.image(of(last.results, "trace")))
         lines.append(
             f"| {scene} | {w}×{h} | {raster:.1f} | {trace:.1f} | {trace / raster:.2f} "
-            f"| {best('raster', 'ms_per_frame')} | {best('trace', 'ms_per_frame')} | {between:.4f} |")
+            f"| {timestamps('raster')} | {timestamps('trace')} | {between['flip']:.4f} |")
     m.write_doc(SCRIPT, args.doc, lines)
 
 

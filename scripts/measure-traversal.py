@@ -15,7 +15,6 @@ build's `rays_per_second` counter also divided by its first frame, which include
 lavapipe). Options: --base REV, --suite FILE, --size WxH, --rounds N, --doc NAME, --allow-dirty.
 """
 import os
-import re
 import subprocess
 import sys
 from pathlib import Path
@@ -65,11 +64,7 @@ def main():
                                    __doc__.splitlines()[0], extra)
     base, base_commit = base_binary(args.base)
     out = m.scratch("traversal")
-    suite = m.ROOT / args.suite
-    if args.size:
-        text = suite.read_text()
-        suite = out / f"traversal-{args.size}.toml"
-        suite.write_text(re.sub(r"(?m)^sizes = .*$", f'sizes = ["{args.size}"]', text))
+    suite = m.suite_at_size(args.suite, args.size, out)
     start = m.load_average()
     best = {}
     runs = {}
@@ -88,7 +83,7 @@ def main():
     cpu = adapter.get("device_type") == "Cpu"
     first = after.results["cells"][0]
     size = args.size or f"{first['width']}x{first['height']}"
-    command = f"python3 scripts/{SCRIPT}" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+    command = m.command_line(SCRIPT)
     lines = [
         f"# Ray traversal: path tracer throughput before and after ({size})",
         "",

@@ -69,7 +69,7 @@ def main():
         render = stats["frame_wall"]["mean_ms"]
         viewer = view["wall_ms_per_frame"]
         rows.append((technique, viewer, render, (viewer / render - 1.0) * 100.0))
-    command = f"python3 scripts/{SCRIPT}" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+    command = m.command_line(SCRIPT)
     lines = [
         f"# `rtgi view`: the window's cost per frame ({args.size}, {m.adapter_text(adapter)})",
         "",

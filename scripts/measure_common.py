@@ -84,10 +84,26 @@ def suite_arguments(script, suite, doc, description, extra=None):
     return args, rtgi_binary()
 
 
+def command_line(script):
+    """How the running script was invoked, as a document names it (without --allow-dirty)."""
+    return f"python3 scripts/{script}" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+
+
+def suite_at_size(suite_path, size, out):
+    """The suite file at `suite_path` (relative to the repository), or with `size` a copy of it in `out`
+    whose `sizes` is that one size."""
+    suite_file = ROOT / suite_path
+    if not size:
+        return suite_file
+    copy = Path(out) / f"{suite_file.stem}-{size}.toml"
+    copy.write_text(re.sub(r"(?m)^sizes = .*$", f'sizes = ["{size}"]', suite_file.read_text()))
+    return copy
+
+
 def printed_by(script, args, size, results, adapter, cpu):
     """A document's first sentences: the command that printed it, the suite, commit and adapter, and
     where the bench's own report lies."""
-    command = f"python3 scripts/{script}" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+    command = command_line(script)
     return (f"Printed by `{command}` from `rtgi bench {args.suite}`" + (f" at {size}" if args.size else "")
             + f" at commit `{results['rtgi']['commit']}` on {adapter_text(adapter)}"
             + (", 2 CPU cores" if cpu else "") + ". The bench's own report (Pareto plots, every cell with "
@@ -367,13 +383,8 @@ def run_suite_into_doc(rtgi, out, doc_dir, suite_path, size, doc):
     if out.exists():
         shutil.rmtree(out)
     out.mkdir(parents=True)
-    suite_file = ROOT / suite_path
-    suite_text = suite_file.read_text()
-    suite = tomllib.loads(suite_text)
-    if size:
-        suite_text = re.sub(r"(?m)^sizes = .*$", f'sizes = ["{size}"]', suite_text)
-        suite_file = out / f"{suite_file.stem}-{size}.toml"
-        suite_file.write_text(suite_text)
+    suite = tomllib.loads((ROOT / suite_path).read_text())
+    suite_file = suite_at_size(suite_path, size, out)
     size = size or suite["sizes"][0]
     print(f"running {suite_path} at {size} ...", flush=True)
     subprocess.run([str(rtgi), "bench", str(suite_file), "--out", str(out), "--images"], check=True)
