@@ -477,10 +477,12 @@ warmup = 5
                 "lpv.toml",
                 "primary.toml",
                 "quick.toml",
+                "radiance-cache.toml",
                 "rsm-timing.toml",
                 "rsm.toml",
                 "splat.toml",
                 "traversal.toml",
+                "vpl-equal-time.toml",
                 "vxgi.toml"
             ]
         );

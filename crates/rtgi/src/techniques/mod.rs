@@ -14,6 +14,7 @@ pub(crate) mod fixture;
 pub mod igi;
 pub mod lpv;
 pub mod path;
+pub mod radiance_cache;
 pub mod rsm;
 pub mod vxgi;
 
@@ -214,6 +215,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         ddgi::INFO,
         lpv::INFO,
         vxgi::INFO,
+        radiance_cache::INFO,
     ]
 }
 

@@ -1,0 +1,88 @@
+// The irradiance records of the radiance cache, their weight (Ward et al. 1988) and extrapolation by
+// gradients (Ward & Heckbert 1992), shared by splatting, miss detection and the record pass. Mirrors
+// `Record` and `CacheState` in radiance_cache/mod.rs; the CPU twins of `record_weight` and
+// `record_irradiance` are `Record::weight` and `Record::irradiance_at` there.
+//
+// Constants from the host: ACCURACY (a), CAPACITY (records), BIN_TILE (pixels per bin tile edge),
+// BIN_WORDS (CAPACITY / 32), BIN_TILES_X.
+
+#import common/frame.wgsl
+
+struct Record {
+    // Position (xyz) and harmonic mean distance R to what the hemisphere sees, clamped (w).
+    position_radius: vec4f,
+    // Normal of the surface at the record (xyz).
+    normal: vec4f,
+    // Irradiance (rgb) of the indirect light.
+    irradiance: vec4f,
+    // Per colour channel: the rotational gradient (xyz), E(n) ≈ E + (n_k × n) · ∇r.
+    rotation: array<vec4f, 3>,
+    // Per colour channel: the translational gradient (xyz), E(p) ≈ E + (p − p_k) · ∇t.
+    translation: array<vec4f, 3>,
+}
+
+// What the passes of a frame hand each other on the GPU (the host writes only the per-frame fields at
+// the frame's start and reads the counters for the stats).
+struct CacheState {
+    // Records in the cache.
+    count: u32,
+    // The next splat pass adds records [splat_begin, count); 0 = the splat buffer is rebuilt.
+    splat_begin: u32,
+    // Miss-detection rounds this frame (the candidate tile halves each round).
+    iteration: u32,
+    // Records created this frame (against RECORDS_PER_FRAME).
+    created_this_frame: u32,
+    // Tiles with a missing pixel at the last round, and of them the ones left for lack of budget.
+    missing_tiles: u32,
+    unserved_tiles: u32,
+    // Records created since the cache was last cleared.
+    created_total: u32,
+    _pad: u32,
+}
+
+// Weights above this are clamped (the weight is infinite at the record itself).
+const MAX_WEIGHT: f32 = 1e4;
+
+// Ward's error term ||p − p_k|| / R_k + sqrt(1 − n · n_k); the record contributes where it is ≤ a
+// (weight ≥ 1/a).
+fn record_error(r: Record, p: vec3f, n: vec3f) -> f32 {
+    let d = length(p - r.position_radius.xyz) / r.position_radius.w;
+    return d + sqrt(max(0.0, 1.0 - dot(n, r.normal.xyz)));
+}
+
+fn record_weight_of_error(e: f32) -> f32 {
+    return 1.0 / max(e, 1.0 / MAX_WEIGHT);
+}
+
+// Irradiance of record r extrapolated to (p, n) by its gradients, never negative.
+fn record_irradiance(r: Record, p: vec3f, n: vec3f) -> vec3f {
+    let axis = cross(r.normal.xyz, n);
+    let dp = p - r.position_radius.xyz;
+    let delta = vec3f(
+        dot(axis, r.rotation[0].xyz) + dot(dp, r.translation[0].xyz),
+        dot(axis, r.rotation[1].xyz) + dot(dp, r.translation[1].xyz),
+        dot(axis, r.rotation[2].xyz) + dot(dp, r.translation[2].xyz),
+    );
+    return max(r.irradiance.rgb + delta, vec3f(0.0));
+}
+
+// The framebuffer rectangle (x0, y0, x1, y1, pixels) holding the projection of the sphere of radius
+// a · R_k around the record, outside which the record's weight is below 1/a: the projected corners of
+// the sphere's bounding box, widened by a pixel for the sub-pixel jitter of primary rays; the whole
+// frame when the box reaches behind the camera.
+fn record_screen_rect(r: Record) -> vec4f {
+    let radius = ACCURACY * r.position_radius.w;
+    var lo = vec2f(3.0e38);
+    var hi = vec2f(-3.0e38);
+    for (var i = 0u; i < 8u; i++) {
+        let corner = vec3f(f32(i & 1u), f32((i >> 1u) & 1u), f32(i >> 2u)) * 2.0 - 1.0;
+        let clip = frame.view_proj * vec4f(r.position_radius.xyz + radius * corner, 1.0);
+        if clip.w <= 1e-6 {
+            return vec4f(0.0, 0.0, vec2f(frame.size));
+        }
+        let xy = clip_to_pixel(clip);
+        lo = min(lo, xy);
+        hi = max(hi, xy);
+    }
+    return vec4f(max(lo - 1.0, vec2f(0.0)), min(hi + 1.0, vec2f(frame.size)));
+}

@@ -1,0 +1,554 @@
+//! `radiance-cache`: irradiance caching with radiance cache splatting (Gautron et al. 2005; chapter 4
+//! of `research/seeds/002`, report §3) for one bounce of diffuse indirect light, with every step on
+//! the GPU.
+//!
+//! Records {position, normal, irradiance, rotational and translational gradients, harmonic mean
+//! distance R} persist across frames and views (they do not depend on the camera). Per frame: `direct
+//! lighting` (the shared pass); `cache splat` adds every record to the pixels where its weight
+//! 1 / (‖p − p_k‖ / R_k + √(1 − n·n_k)) reaches 1/a, in compute over per-tile record sets (the
+//! thesis blends one quad per record); then `iterations` rounds of `cache miss detection` (pixels whose
+//! summed weight is below a; one pick per candidate tile, compacted by a prefix sum in one workgroup —
+//! the thesis does this on the CPU, with a readback), `record computation` (one workgroup per new
+//! record: a stratified hemisphere of rays through the shared BVH, shaded with direct light) and a
+//! `cache splat` of the new records; finally `cache shading` normalises Σ w E / Σ w and adds the
+//! diffuse light to the direct light. The host never waits for the GPU: new records per frame are
+//! bounded by a budget (`records_per_frame`, progressive mode) and the rounds that find no miss cost a
+//! pass over the pixels.
+//!
+//! The cache is cleared when lights, the environment or geometry change (temporal reuse is
+//! `radiance-cache-temporal`'s job, not built yet).
+
+use std::collections::BTreeMap;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::{GpuContext, Profiler, readback};
+use crate::params::{ParamKind, ParamSpec, ParamValues};
+use crate::shaders::Defines;
+use crate::techniques::RenderError;
+
+use super::compute::{self, storage_buffer_entry, storage_texture_entry, texture_entry};
+use super::direct::{DirectLighting, DirectOutput, with_direct_params};
+use super::{FrameContext, FrameNeeds, Measured, SceneChange, Technique, TechniqueInfo, TechniqueSetup};
+
+#[cfg(test)]
+mod tests;
+
+const CACHE_WGSL: &str = include_str!("cache.wgsl");
+const BINDINGS_WGSL: &str = include_str!("bindings.wgsl");
+
+/// Pixels per edge of the tiles that hold per-record bit sets (`BIN_TILE` in splat.wgsl).
+const BIN_TILE: u32 = 16;
+/// The largest candidate tile of miss detection (the first round's); later rounds halve it down to
+/// MIN_CANDIDATE_TILE.
+const FIRST_CANDIDATE_TILE: u32 = 64;
+const MIN_CANDIDATE_TILE: u32 = 4;
+/// Threads per workgroup of the rectangle and bin passes.
+const LINEAR_WORKGROUP: u32 = 64;
+/// Hemisphere cells are held in workgroup memory (16 + 4 bytes each) within the 16 KiB every adapter has.
+const MAX_HEMISPHERE_SAMPLES: i64 = 768;
+
+const PARAMS: [ParamSpec; 17] = with_direct_params![
+    ParamSpec {
+        name: "accuracy",
+        kind: ParamKind::Float { min: 0.01, max: 1.0 },
+        default: "0.3",
+        doc: "a: a record reaches where its weight is at least 1/a (zone radius a·R); smaller = more records, less interpolation error (the thesis: 0.1-0.25 offline, 0.5 interactive)",
+    },
+    ParamSpec {
+        name: "hemisphere_samples",
+        kind: ParamKind::Int { min: 4, max: MAX_HEMISPHERE_SAMPLES },
+        default: "256",
+        doc: "rays per record, in M × N stratified cells with N ≈ πM (the thesis's 64×64 raster plane has 4096 texels)",
+    },
+    ParamSpec {
+        name: "records",
+        kind: ParamKind::Int { min: 32, max: 1 << 20 },
+        default: "16384",
+        doc: "cache capacity in records (rounded up to a multiple of 32); the cache stops growing when full",
+    },
+    ParamSpec {
+        name: "records_per_frame",
+        kind: ParamKind::Int { min: 1, max: 65535 },
+        default: "4096",
+        doc: "new records per frame at most (progressive mode: the thesis's interactive walkthrough used 100)",
+    },
+    ParamSpec {
+        name: "iterations",
+        kind: ParamKind::Int { min: 0, max: 16 },
+        default: "4",
+        doc: "rounds of miss detection, record computation and splatting per frame (candidate tiles of 64, 32, 16, 8, then 4 pixels)",
+    },
+    ParamSpec {
+        name: "min_zone",
+        kind: ParamKind::Float { min: 0.0, max: 1e4 },
+        default: "3",
+        doc: "smallest radius a·R of a record's zone, in pixels of the view that created it (R clamped; 0 = no floor)",
+    },
+    ParamSpec {
+        name: "max_zone",
+        kind: ParamKind::Float { min: 1.0, max: 1e6 },
+        default: "128",
+        doc: "largest radius a·R of a record's zone, in pixels of the view that created it",
+    },
+    ParamSpec {
+        name: "gradients",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "extrapolate records by their rotational and translational gradients (Ward & Heckbert 1992)",
+    },
+    ParamSpec {
+        name: "seed",
+        kind: ParamKind::Int { min: 0, max: u32::MAX as i64 },
+        default: "0",
+        doc: "seed of the hemisphere jitter and of the placement's tie breaks",
+    },
+];
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "radiance-cache",
+    description: "irradiance caching by radiance cache splatting, records placed and computed on the GPU (one diffuse bounce)",
+    params: &PARAMS,
+    needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
+    motion: super::Motion::Restarts,
+    validate,
+    create,
+};
+
+fn validate(p: &ParamValues) -> Result<(), String> {
+    if p.float("min_zone") > p.float("max_zone") {
+        return Err(format!(
+            "min_zone ({}) is above max_zone ({})",
+            p.float("min_zone"),
+            p.float("max_zone")
+        ));
+    }
+    Ok(())
+}
+
+/// Mirrors `Record` in cache.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct Record {
+    pub position_radius: [f32; 4],
+    pub normal: [f32; 4],
+    pub irradiance: [f32; 4],
+    pub rotation: [[f32; 4]; 3],
+    pub translation: [[f32; 4]; 3],
+}
+
+impl Record {
+    fn position(&self) -> Vec3 {
+        Vec3::from_slice(&self.position_radius[..3])
+    }
+
+    fn normal(&self) -> Vec3 {
+        Vec3::from_slice(&self.normal[..3])
+    }
+
+    /// Ward's error term at (p, n), the twin of `record_error`: the record reaches where it is ≤ a.
+    pub fn error(&self, p: Vec3, n: Vec3) -> f32 {
+        (p - self.position()).length() / self.position_radius[3]
+            + (1.0 - n.dot(self.normal())).max(0.0).sqrt()
+    }
+
+    /// The twin of `record_weight_of_error`.
+    pub fn weight_of_error(e: f32) -> f32 {
+        1.0 / e.max(1.0 / MAX_WEIGHT)
+    }
+
+    /// Irradiance extrapolated to (p, n) by the gradients, the twin of `record_irradiance`.
+    pub fn irradiance_at(&self, p: Vec3, n: Vec3) -> Vec3 {
+        let axis = self.normal().cross(n);
+        let dp = p - self.position();
+        let delta = Vec3::from(std::array::from_fn(|c| {
+            axis.dot(Vec3::from_slice(&self.rotation[c][..3]))
+                + dp.dot(Vec3::from_slice(&self.translation[c][..3]))
+        }));
+        (Vec3::from_slice(&self.irradiance[..3]) + delta).max(Vec3::ZERO)
+    }
+}
+
+/// `MAX_WEIGHT` in cache.wgsl.
+const MAX_WEIGHT: f32 = 1e4;
+
+/// Mirrors `CacheState` in cache.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Eq)]
+pub struct CacheState {
+    pub count: u32,
+    pub splat_begin: u32,
+    pub iteration: u32,
+    pub created_this_frame: u32,
+    pub missing_tiles: u32,
+    pub unserved_tiles: u32,
+    pub created_total: u32,
+    pub _pad: u32,
+}
+
+/// The stratification of `samples` hemisphere rays: (M, N) cells in θ and φ with N ≈ πM, as Ward &
+/// Heckbert recommend, M·N as close to `samples` as that allows.
+pub fn hemisphere_cells(samples: u32) -> (u32, u32) {
+    let m = ((f64::from(samples) / std::f64::consts::PI).sqrt().round() as u32).max(1);
+    let n = ((f64::from(samples) / f64::from(m)).round() as u32).max(1);
+    (m, n)
+}
+
+pub(crate) struct RadianceCache {
+    direct: DirectLighting,
+    _direct_texture: wgpu::Texture,
+    // Σ w E, Σ w per pixel (read back by the tests).
+    #[cfg_attr(not(test), allow(dead_code))]
+    splat_texture: wgpu::Texture,
+    records: wgpu::Buffer,
+    state: wgpu::Buffer,
+    rects: wgpu::Buffer,
+    bins: wgpu::Buffer,
+    candidates: wgpu::Buffer,
+    new_pixels: wgpu::Buffer,
+    record_dispatch: wgpu::Buffer,
+    cache_group: wgpu::BindGroup,
+    dispatch_group: wgpu::BindGroup,
+    rects_pipeline: wgpu::ComputePipeline,
+    bins_pipeline: wgpu::ComputePipeline,
+    splat_pipeline: wgpu::ComputePipeline,
+    detect_pipeline: wgpu::ComputePipeline,
+    compact_pipeline: wgpu::ComputePipeline,
+    record_pipeline: wgpu::ComputePipeline,
+    shade_pipeline: wgpu::ComputePipeline,
+    capacity: u32,
+    cells: (u32, u32),
+    iterations: u32,
+    bin_tiles: [u32; 2],
+    clear_pending: bool,
+    width: u32,
+    height: u32,
+}
+
+fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
+    Ok(Box::new(RadianceCache::new(setup)?))
+}
+
+/// The defines every pass of the cache shares.
+fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x: u32) -> Defines {
+    Defines::new()
+        .f32("ACCURACY", p.float("accuracy") as f32)
+        .u32("CAPACITY", capacity)
+        .u32("BIN_TILE", BIN_TILE)
+        .u32("BIN_WORDS", capacity / 32)
+        .u32("BIN_TILES_X", bin_tiles_x)
+        .u32("FIRST_CANDIDATE_TILE", FIRST_CANDIDATE_TILE)
+        .u32("MIN_CANDIDATE_TILE", MIN_CANDIDATE_TILE)
+        .u32("RECORDS_PER_FRAME", p.int("records_per_frame") as u32)
+        .u32("SAMPLES_THETA", cells.0)
+        .u32("SAMPLES_PHI", cells.1)
+        .f32("MIN_ZONE_PIXELS", p.float("min_zone") as f32)
+        .f32("MAX_ZONE_PIXELS", p.float("max_zone") as f32)
+        .bool("GRADIENTS", p.bool("gradients"))
+        .u32("SEED", p.int("seed") as u32)
+}
+
+/// The composed source of a cache pass: the records, the cache's bindings, then the pass.
+fn cache_source(pass: &str) -> String {
+    format!("{CACHE_WGSL}\n{BINDINGS_WGSL}\n{pass}")
+}
+
+impl RadianceCache {
+    pub(crate) fn new(setup: &TechniqueSetup) -> Result<Self, RenderError> {
+        let ctx = setup.ctx;
+        let p = setup.params;
+        let (width, height) = (setup.frame.width, setup.frame.height);
+        let capacity = (p.int("records") as u32).next_multiple_of(32);
+        let cells = hemisphere_cells(p.int("hemisphere_samples") as u32);
+        let bin_tiles = [width.div_ceil(BIN_TILE), height.div_ceil(BIN_TILE)];
+        let words = u64::from(capacity / 32);
+        let bin_bytes = u64::from(bin_tiles[0] * bin_tiles[1]) * words * 4;
+        let record_bytes = u64::from(capacity) * size_of::<Record>() as u64;
+        ctx.check_storage_size("the radiance cache's records", record_bytes)?;
+        ctx.check_storage_size("the radiance cache's per-tile record sets", bin_bytes)?;
+        let per_frame = (p.int("records_per_frame") as u32).min(capacity);
+        let candidate_count =
+            u64::from(width.div_ceil(MIN_CANDIDATE_TILE) * height.div_ceil(MIN_CANDIDATE_TILE));
+
+        let device = &ctx.device;
+        let storage = |label: &str, size: u64| compute::storage_buffer(ctx, label, size);
+        let records = storage("radiance cache records", record_bytes);
+        let state = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("radiance cache state"),
+            contents: bytemuck::bytes_of(&CacheState::zeroed()),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        });
+        let rects = storage("radiance cache rectangles", u64::from(capacity) * 16);
+        let bins = storage("radiance cache record sets", bin_bytes);
+        let candidates = storage("radiance cache candidates", candidate_count * 4);
+        let new_pixels = storage("radiance cache new pixels", u64::from(per_frame) * 4);
+        let record_dispatch = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("radiance cache record dispatch"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            mapped_at_creation: false,
+        });
+        let splat_texture =
+            compute::storage_texture(ctx, "radiance cache splat", width, height, OUTPUT_FORMAT);
+        let direct_texture =
+            compute::storage_texture(ctx, "radiance cache direct", width, height, OUTPUT_FORMAT);
+        let direct = DirectLighting::new(setup, &direct_texture, DirectOutput::Accumulate)?;
+
+        let rw = wgpu::StorageTextureAccess::ReadWrite;
+        let cache_layout = compute::layout(
+            ctx,
+            "radiance cache",
+            &[
+                storage_buffer_entry(0, false),
+                storage_buffer_entry(1, false),
+                storage_buffer_entry(2, false),
+                storage_buffer_entry(3, false),
+                storage_buffer_entry(4, false),
+                storage_buffer_entry(5, false),
+                storage_texture_entry(6, OUTPUT_FORMAT, rw),
+                texture_entry(7, wgpu::TextureSampleType::Float { filterable: false }),
+                storage_texture_entry(8, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
+            ],
+        );
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let (splat_view, direct_view, output_view) =
+            (view(&splat_texture), view(&direct_texture), view(setup.output));
+        let cache_group = compute::bind_group(
+            ctx,
+            "radiance cache",
+            &cache_layout,
+            &[
+                records.as_entire_binding(),
+                state.as_entire_binding(),
+                rects.as_entire_binding(),
+                bins.as_entire_binding(),
+                candidates.as_entire_binding(),
+                new_pixels.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&splat_view),
+                wgpu::BindingResource::TextureView(&direct_view),
+                wgpu::BindingResource::TextureView(&output_view),
+            ],
+        );
+        let dispatch_layout =
+            compute::layout(ctx, "radiance cache dispatch", &[storage_buffer_entry(0, false)]);
+        let dispatch_group = compute::bind_group(
+            ctx,
+            "radiance cache dispatch",
+            &dispatch_layout,
+            &[record_dispatch.as_entire_binding()],
+        );
+
+        let defines = cache_defines(p, capacity, cells, bin_tiles[0]);
+        let groups = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &cache_layout];
+        let pipeline = |name: &str, pass: &str, entry: &str| {
+            compute::pipeline(
+                ctx,
+                name,
+                &cache_source(pass),
+                setup.gpu_scene.bvh_defines(defines.clone()),
+                entry,
+                &groups,
+            )
+        };
+        let splat = include_str!("splat.wgsl");
+        let place = include_str!("place.wgsl");
+        let rects_pipeline = pipeline("radiance cache rectangles", splat, "splat_rects")?;
+        let bins_pipeline = pipeline("radiance cache record sets", splat, "splat_bins")?;
+        let splat_pipeline = pipeline("radiance cache splat", splat, "splat")?;
+        let detect_pipeline = pipeline("radiance cache miss detection", place, "detect_misses")?;
+        let record_pipeline =
+            pipeline("radiance cache records", include_str!("record.wgsl"), "compute_record")?;
+        let shade_pipeline = pipeline("radiance cache shading", include_str!("shade.wgsl"), "shade")?;
+        let compact_pipeline = compute::pipeline(
+            ctx,
+            "radiance cache compaction",
+            &cache_source(place),
+            setup.gpu_scene.bvh_defines(defines.clone()),
+            "compact",
+            &[
+                &setup.gpu_scene.bind_group_layout,
+                &setup.frame.bind_group_layout,
+                &cache_layout,
+                &dispatch_layout,
+            ],
+        )?;
+
+        Ok(RadianceCache {
+            direct,
+            _direct_texture: direct_texture,
+            splat_texture,
+            records,
+            state,
+            rects,
+            bins,
+            candidates,
+            new_pixels,
+            record_dispatch,
+            cache_group,
+            dispatch_group,
+            rects_pipeline,
+            bins_pipeline,
+            splat_pipeline,
+            detect_pipeline,
+            compact_pipeline,
+            record_pipeline,
+            shade_pipeline,
+            capacity,
+            cells,
+            iterations: p.int("iterations") as u32,
+            bin_tiles,
+            clear_pending: false,
+            width,
+            height,
+        })
+    }
+
+    fn groups<'a>(&'a self, fc: &'a FrameContext) -> [&'a wgpu::BindGroup; 3] {
+        [&fc.gpu_scene.bind_group, &fc.frame.bind_group, &self.cache_group]
+    }
+
+    /// Adds the records [splat_begin, count) to the splat buffer (rebuilding it when splat_begin is 0).
+    fn splat(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let groups = self.groups(fc);
+        profiler.pass(fc.ctx, "cache splat", |encoder| {
+            let linear = self.capacity.div_ceil(LINEAR_WORKGROUP);
+            compute::dispatch(encoder, "cache rectangles", &self.rects_pipeline, &groups, [linear, 1, 1]);
+            let words = (self.capacity / 32).div_ceil(LINEAR_WORKGROUP);
+            compute::dispatch(
+                encoder,
+                "cache record sets",
+                &self.bins_pipeline,
+                &groups,
+                [words, self.bin_tiles[0], self.bin_tiles[1]],
+            );
+            compute::dispatch_pixels(
+                encoder,
+                "cache splat",
+                &self.splat_pipeline,
+                &groups,
+                self.width,
+                self.height,
+            );
+        })?;
+        Ok(())
+    }
+
+    /// One round of placement: misses → picks → new records → their splats.
+    fn place_records(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let groups = self.groups(fc);
+        profiler.pass(fc.ctx, "cache miss detection", |encoder| {
+            encoder.clear_buffer(&self.candidates, 0, None);
+            compute::dispatch_pixels(
+                encoder,
+                "cache miss detection",
+                &self.detect_pipeline,
+                &groups,
+                self.width,
+                self.height,
+            );
+            compute::dispatch(
+                encoder,
+                "cache compaction",
+                &self.compact_pipeline,
+                &[groups[0], groups[1], groups[2], &self.dispatch_group],
+                [1, 1, 1],
+            );
+        })?;
+        profiler.pass(fc.ctx, "record computation", |encoder| {
+            crate::gpu::dispatch::dispatch_indirect(
+                encoder,
+                "record computation",
+                &self.record_pipeline,
+                &groups,
+                &self.record_dispatch,
+                0,
+            );
+        })?;
+        self.splat(fc, profiler)
+    }
+
+    /// The cache's counters, read back.
+    pub(crate) fn read_state(&self, ctx: &GpuContext) -> Result<CacheState, RenderError> {
+        let bytes = readback::read_buffer(ctx, &self.state, 0, size_of::<CacheState>() as u64)?;
+        Ok(*bytemuck::from_bytes(&bytes))
+    }
+
+    /// The first `count` records, read back.
+    #[cfg(test)]
+    pub(crate) fn read_records(&self, ctx: &GpuContext, count: u32) -> Result<Vec<Record>, RenderError> {
+        if count == 0 {
+            return Ok(Vec::new());
+        }
+        let bytes =
+            readback::read_buffer(ctx, &self.records, 0, u64::from(count) * size_of::<Record>() as u64)?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+}
+
+impl Technique for RadianceCache {
+    fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        // Per frame: splat from the first record, first round, nothing created yet; the count stays
+        // unless the cache is cleared.
+        let fresh = CacheState::zeroed();
+        let bytes = bytemuck::bytes_of(&fresh);
+        if self.clear_pending {
+            fc.ctx.queue.write_buffer(&self.state, 0, bytes);
+            self.clear_pending = false;
+        } else {
+            fc.ctx.queue.write_buffer(&self.state, 4, &bytes[4..16]);
+        }
+        self.direct.render(fc, profiler)?;
+        self.splat(fc, profiler)?;
+        for _ in 0..self.iterations {
+            self.place_records(fc, profiler)?;
+        }
+        compute::frame_pass(fc, profiler, "cache shading", &self.shade_pipeline, &self.cache_group)
+    }
+
+    fn counters(
+        &mut self,
+        ctx: &GpuContext,
+        measured: &Measured,
+    ) -> Result<BTreeMap<String, f64>, RenderError> {
+        let s = self.read_state(ctx)?;
+        let pixels = f64::from(self.width * self.height);
+        let mut c = BTreeMap::from([
+            ("records".to_string(), f64::from(s.count)),
+            ("record_capacity".to_string(), f64::from(self.capacity)),
+            ("records_created_last_frame".to_string(), f64::from(s.created_this_frame)),
+            ("missing_tiles_last_round".to_string(), f64::from(s.missing_tiles)),
+            ("unserved_tiles_last_round".to_string(), f64::from(s.unserved_tiles)),
+            ("hemisphere_rays_per_record".to_string(), f64::from(self.cells.0 * self.cells.1)),
+            ("record_bytes".to_string(), self.records.size() as f64),
+            ("record_set_bytes".to_string(), (self.bins.size() + self.rects.size()) as f64),
+            ("candidate_bytes".to_string(), (self.candidates.size() + self.new_pixels.size()) as f64),
+            ("splat_bytes_per_pixel".to_string(), 16.0),
+            ("direct_bytes_per_pixel".to_string(), 16.0),
+            ("output_bytes_per_pixel".to_string(), 16.0),
+            ("pixels".to_string(), pixels),
+        ]);
+        if let Some(ms) = measured.pass_mean_ms("record computation") {
+            c.insert("record_computation_ms_per_round".into(), ms);
+        }
+        Ok(c)
+    }
+
+    // Records hold light that no longer holds after any change: clear the cache and refill it.
+    fn scene_changed(
+        &mut self,
+        _: &GpuContext,
+        _: &crate::gpu::GpuScene,
+        _: SceneChange,
+    ) -> Result<bool, RenderError> {
+        self.clear_pending = true;
+        Ok(true)
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        vec!["radiance-cache: irradiance records carry one diffuse bounce; glossy lobes get no indirect light (radiance records with HSH are not built yet)".into()]
+    }
+}

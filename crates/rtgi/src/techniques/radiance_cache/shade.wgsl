@@ -1,0 +1,20 @@
+// Camera pixels: the direct light (the shared `direct` pass, averaged while nothing changes) plus the
+// diffuse lobe times the cache's irradiance, Σ w_k E_k(p) / Σ w_k (no indirect light where no record
+// reaches yet, in progressive mode). Glossy lobes get no indirect light from irradiance records.
+
+#import common/brdf.wgsl
+
+@compute @workgroup_size(TILE, TILE, 1)
+fn shade(@builtin(global_invocation_id) id: vec3u) {
+    if any(id.xy >= frame.size) {
+        return;
+    }
+    var radiance = textureLoad(direct_light_texture, id.xy, 0).rgb;
+    let s = load_gsurface(id.xy);
+    let sum = textureLoad(splat_buffer, id.xy);
+    if s.valid && sum.a > 0.0 {
+        let diffuse = brdf_lobe_weights(s.material, dot(s.normal, s.view)).diffuse;
+        radiance += diffuse * INV_PI * sum.rgb / sum.a;
+    }
+    textureStore(output, id.xy, vec4f(radiance, 1.0));
+}

@@ -1,0 +1,91 @@
+#!/usr/bin/env python3
+"""Prints docs/measurements/radiance-cache-lavapipe.md: radiance-cache against one-bounce path tracing
+(issue 13, item 2).
+
+    cargo build --release -p rtgi-cli && python3 scripts/measure-radiance-cache.py   # about 15 min on lavapipe
+    python3 scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu   # a GPU
+
+Runs `rtgi bench benches/radiance-cache.toml --images` and prints, per scene, each cell's time per frame
+(a static view with a complete cache: the warm-up frame fills it), its FLIP and relMSE against the
+one-bounce reference, the path tracer's FLIP at the same time, the time path needs for the cell's FLIP
+(interpolated in log time between its spp cells) and the speedup that gives, the records and the
+per-pass split. Options: --suite FILE, --size WxH, --doc NAME, --allow-dirty.
+"""
+import math
+import sys
+
+sys.dont_write_bytecode = True
+import measure_common as m  # noqa: E402
+
+SCRIPT = "measure-radiance-cache.py"
+CACHE_PASSES = ("cache splat", "cache miss detection", "record computation", "cache shading")
+
+
+def path_ms_at_flip(cells, flip):
+    """The time at which path reaches `flip`, interpolated in log time between its cells; None when
+    `flip` is outside their FLIPs."""
+    path = sorted((c["frame_ms"], c["error"]["flip"]) for c in cells if c["technique"] == "path")
+    for (t0, f0), (t1, f1) in zip(path, path[1:]):
+        if min(f0, f1) <= flip <= max(f0, f1) and f0 != f1:
+            w = (flip - f0) / (f1 - f0)
+            return math.exp(math.log(t0) + w * (math.log(t1) - math.log(t0)))
+    return None
+
+
+def main():
+    args, rtgi = m.suite_arguments(SCRIPT, "benches/radiance-cache.toml", "radiance-cache-lavapipe",
+                                   __doc__.splitlines()[0])
+    out = m.scratch("radiance-cache") / "bench"
+    start = m.load_average()
+    suite, size, results, cells, adapter, cpu, spp = m.run_suite_into_doc(
+        rtgi, out, m.ROOT / "docs/measurements", args.suite, args.size, args.doc)
+    width, height = (int(v) for v in size.split("x"))
+    ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
+    lines = [
+        f"# radiance-cache against one-bounce path tracing ({width}×{height})", "",
+        m.printed_by(SCRIPT, args, size, results, adapter, cpu) + " " + m.load_text(start, m.load_average()),
+        "",
+        f"Each cell: a fresh renderer, one warm-up frame (which fills the cache: 4 rounds of miss detection, "
+        f"up to 4096 new records), {suite.get('frames', 8)} timed frames of the same view, then "
+        f"{suite.get('error_frames', 4)} compared with the one-bounce (`max_bounces=1`) path-traced "
+        f"reference (spp: {ref_spp}). ms/frame: the whole frame's GPU time, so for the cache the cost of a "
+        "static view with a complete cache (the G-buffer, direct light, a full splat, the rounds that find "
+        "no miss, shading). \"path ms at this FLIP\": the time per frame path needs for the cell's FLIP, "
+        "interpolated in log time between its spp cells; the speedup is that over the cell's time (the "
+        "thesis's 29.7-47.1× were against the Radiance software on a CPU; this is against rtgi's own "
+        "path tracer on the same device)"
+        + (". On lavapipe: compare techniques with each other, not with GPU figures." if cpu else "."), "",
+    ]
+    for scene in dict.fromkeys(c["scene"] for c in cells):
+        sc = [c for c in cells if c["scene"] == scene]
+        lines += [f"## {scene}", "",
+                  "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time | path ms at this FLIP | speedup "
+                  "| records | on the front |", "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+        for c in sc:
+            records = c["counters"].get("records")
+            if c["technique"] == "path":
+                at, speedup = "–", "–"
+            else:
+                t = path_ms_at_flip(sc, c["error"]["flip"])
+                at = f"{t:.0f}" if t else "outside path's FLIPs"
+                speedup = f"{t / c['frame_ms']:.1f}×" if t else "–"
+            lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {c['error']['flip']:.4f} | "
+                         f"{c['error']['rel_mse']:.5f} | {m.path_flip_text(sc, c)} | {at} | {speedup} | "
+                         f"{f'{records:.0f}' if records is not None else '–'} | "
+                         f"{'yes' if m.on_front(sc, c) else 'no'} |")
+        lines += ["", "Passes of the cache cells (ms per frame, timed frames):", "",
+                  "| cell | " + " | ".join(CACHE_PASSES) + " | other passes |",
+                  "|---|" + "---:|" * (len(CACHE_PASSES) + 1)]
+        for c in sc:
+            if c["technique"] != "radiance-cache":
+                continue
+            own = [m.pass_ms(c, name) or 0.0 for name in CACHE_PASSES]
+            rest = ", ".join(f"{p['name']} {p['ms_per_frame']:.2f}" for p in c["passes"]
+                             if p["name"] not in CACHE_PASSES)
+            lines.append(f"| {m.label(c)} | " + " | ".join(f"{v:.2f}" for v in own) + f" | {rest} |")
+        lines.append("")
+    m.write_doc(SCRIPT, args.doc, lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
