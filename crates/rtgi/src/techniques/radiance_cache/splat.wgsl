@@ -44,6 +44,10 @@ fn splat(@builtin(global_invocation_id) id: vec3u) {
     }
     let begin = state.splat_begin;
     let range = state.count - begin;
+    // Nothing to add (the rounds that find no miss): the buffer already holds the sums.
+    if range == 0u && begin > 0u {
+        return;
+    }
     var sum = vec4f(0.0);
     if begin > 0u {
         sum = textureLoad(splat_buffer, id.xy);
