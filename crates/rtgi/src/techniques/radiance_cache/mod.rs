@@ -344,37 +344,32 @@ impl RadianceCache {
 
         let defines = cache_defines(p, capacity, cells, bin_tiles[0]);
         let groups = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &cache_layout];
-        let pipeline = |name: &str, pass: &str, entry: &str| {
+        let pipeline = |name: &str, pass: &str, entry: &str, layouts: &[&wgpu::BindGroupLayout]| {
             compute::pipeline(
                 ctx,
                 name,
                 &cache_source(pass),
                 setup.gpu_scene.bvh_defines(defines.clone()),
                 entry,
-                &groups,
+                layouts,
             )
         };
         let splat = include_str!("splat.wgsl");
         let place = include_str!("place.wgsl");
-        let rects_pipeline = pipeline("radiance cache rectangles", splat, "splat_rects")?;
-        let bins_pipeline = pipeline("radiance cache record sets", splat, "splat_bins")?;
-        let splat_pipeline = pipeline("radiance cache splat", splat, "splat")?;
-        let detect_pipeline = pipeline("radiance cache miss detection", place, "detect_misses")?;
+        let rects_pipeline = pipeline("radiance cache rectangles", splat, "splat_rects", &groups)?;
+        let bins_pipeline = pipeline("radiance cache record sets", splat, "splat_bins", &groups)?;
+        let splat_pipeline = pipeline("radiance cache splat", splat, "splat", &groups)?;
+        let detect_pipeline = pipeline("radiance cache miss detection", place, "detect_misses", &groups)?;
         let record_pipeline =
-            pipeline("radiance cache records", include_str!("record.wgsl"), "compute_record")?;
-        let shade_pipeline = pipeline("radiance cache shading", include_str!("shade.wgsl"), "shade")?;
-        let compact_pipeline = compute::pipeline(
-            ctx,
+            pipeline("radiance cache records", include_str!("record.wgsl"), "compute_record", &groups)?;
+        let shade_pipeline =
+            pipeline("radiance cache shading", include_str!("shade.wgsl"), "shade", &groups)?;
+        // The compaction alone writes the record pass's dispatch arguments (group 3).
+        let compact_pipeline = pipeline(
             "radiance cache compaction",
-            &cache_source(place),
-            setup.gpu_scene.bvh_defines(defines.clone()),
+            place,
             "compact",
-            &[
-                &setup.gpu_scene.bind_group_layout,
-                &setup.frame.bind_group_layout,
-                &cache_layout,
-                &dispatch_layout,
-            ],
+            &[groups[0], groups[1], groups[2], &dispatch_layout],
         )?;
 
         Ok(RadianceCache {
@@ -491,16 +486,14 @@ impl RadianceCache {
 
 impl Technique for RadianceCache {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        // Per frame: splat from the first record, first round, nothing created yet; the count stays
-        // unless the cache is cleared.
+        // Per frame: splat from the first record, first round, nothing created yet; the count and the
+        // totals stay unless the cache is cleared.
         let fresh = CacheState::zeroed();
         let bytes = bytemuck::bytes_of(&fresh);
-        if self.clear_pending {
-            fc.ctx.queue.write_buffer(&self.state, 0, bytes);
-            self.clear_pending = false;
-        } else {
-            fc.ctx.queue.write_buffer(&self.state, 4, &bytes[4..16]);
-        }
+        let per_frame =
+            std::mem::offset_of!(CacheState, splat_begin)..std::mem::offset_of!(CacheState, missing_tiles);
+        let written = if std::mem::take(&mut self.clear_pending) { 0..bytes.len() } else { per_frame };
+        fc.ctx.queue.write_buffer(&self.state, written.start as u64, &bytes[written]);
         self.direct.render(fc, profiler)?;
         self.splat(fc, profiler)?;
         for _ in 0..self.iterations {

@@ -9,23 +9,10 @@ use crate::shaders::layout::assert_layout;
 use crate::shaders::validate;
 use crate::techniques::fixture::{Fixture, fixture};
 
+/// The defines of a cache of 1024 records at the default parameters.
 fn test_defines() -> Defines {
-    Defines::new()
-        .f32("ACCURACY", 0.3)
-        .u32("CAPACITY", 1024)
-        .u32("BIN_TILE", BIN_TILE)
-        .u32("BIN_WORDS", 32)
-        .u32("BIN_TILES_X", 4)
-        .u32("FIRST_CANDIDATE_TILE", FIRST_CANDIDATE_TILE)
-        .u32("MIN_CANDIDATE_TILE", MIN_CANDIDATE_TILE)
-        .u32("RECORDS_PER_FRAME", 256)
-        .u32("SAMPLES_THETA", 9)
-        .u32("SAMPLES_PHI", 28)
-        .f32("MIN_ZONE_PIXELS", 3.0)
-        .f32("MAX_ZONE_PIXELS", 128.0)
-        .bool("GRADIENTS", true)
-        .u32("SEED", 0)
-        .u32("TILE", TILE)
+    let defaults = ParamValues::defaults("radiance-cache", &PARAMS).expect("defaults");
+    cache_defines(&defaults, 1024, hemisphere_cells(256), 4).u32("TILE", TILE)
 }
 
 #[test]
