@@ -33,17 +33,12 @@ def path_ms_at_flip(cells, flip):
 
 
 def main():
-    args, rtgi = m.suite_arguments(SCRIPT, "benches/radiance-cache.toml", "radiance-cache-lavapipe",
-                                   __doc__.splitlines()[0])
-    out = m.scratch("radiance-cache") / "bench"
-    start = m.load_average()
-    suite, size, results, cells, adapter, cpu, spp = m.run_suite_into_doc(
-        rtgi, out, m.ROOT / "docs/measurements", args.suite, args.size, args.doc)
-    width, height = (int(v) for v in size.split("x"))
-    ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
+    run = m.run_documented_suite(SCRIPT, "radiance-cache", "benches/radiance-cache.toml",
+                                 "radiance-cache-lavapipe", __doc__.splitlines()[0])
+    suite, cells, cpu, ref_spp = run.suite, run.cells, run.cpu, run.ref_spp
     lines = [
-        f"# radiance-cache against one-bounce path tracing ({width}×{height})", "",
-        m.printed_by(SCRIPT, args, size, results, adapter, cpu) + " " + m.load_text(start, m.load_average()),
+        f"# radiance-cache against one-bounce path tracing ({run.width}×{run.height})", "",
+        run.header,
         "",
         f"Each cell: a fresh renderer, one warm-up frame (which fills the cache: 4 rounds of miss detection, "
         f"up to 4096 new records), {suite.get('frames', 8)} timed frames of the same view, then "
@@ -84,7 +79,7 @@ def main():
                              if p["name"] not in CACHE_PASSES)
             lines.append(f"| {m.label(c)} | " + " | ".join(f"{v:.2f}" for v in own) + f" | {rest} |")
         lines.append("")
-    m.write_doc(SCRIPT, args.doc, lines)
+    m.write_doc(SCRIPT, run.args.doc, lines)
 
 
 if __name__ == "__main__":

@@ -23,17 +23,12 @@ VISIBILITY = "visibility + accumulation"
 
 
 def main():
-    args, rtgi = m.suite_arguments(SCRIPT, "benches/vpl-equal-time.toml", "vpl-equal-time-lavapipe",
-                                   __doc__.splitlines()[0])
-    out = m.scratch("vpl-equal-time") / "bench"
-    start = m.load_average()
-    suite, size, results, cells, adapter, cpu, spp = m.run_suite_into_doc(
-        rtgi, out, m.ROOT / "docs/measurements", args.suite, args.size, args.doc)
-    width, height = (int(v) for v in size.split("x"))
-    ref_spp = "; ".join(f"{k} {v}" for k, v in spp.items())
+    run = m.run_documented_suite(SCRIPT, "vpl-equal-time", "benches/vpl-equal-time.toml",
+                                 "vpl-equal-time-lavapipe", __doc__.splitlines()[0])
+    suite, cells, cpu, ref_spp = run.suite, run.cells, run.cpu, run.ref_spp
     lines = [
-        f"# VPL gathering against path tracing at equal time ({width}×{height})", "",
-        m.printed_by(SCRIPT, args, size, results, adapter, cpu) + " " + m.load_text(start, m.load_average()),
+        f"# VPL gathering against path tracing at equal time ({run.width}×{run.height})", "",
+        run.header,
         "",
         f"Each cell: a fresh renderer, {suite.get('frames', 8)} timed frames back to back, each rendered "
         f"afresh (no accumulation over frames), then {suite.get('error_frames', 4)} compared with the "
@@ -80,7 +75,7 @@ def main():
             verdicts.append(f"{scene}: no VPL cell below path's FLIP at equal time within path's times")
     lines += ["## Answer", "", "Does igi or igi-sh beat path at equal GPU time per frame?", ""]
     lines += [f"- {v}." for v in verdicts]
-    m.write_doc(SCRIPT, args.doc, lines)
+    m.write_doc(SCRIPT, run.args.doc, lines)
 
 
 if __name__ == "__main__":

@@ -401,3 +401,20 @@ def run_suite_into_doc(rtgi, out, doc_dir, suite_path, size, doc):
     cpu = adapter.get("device_type") == "Cpu"
     spp = {sc["scene"]: sc.get("spp", suite["reference"]["spp"]) for sc in suite["scenes"]}
     return suite, size, results, cells, adapter, cpu, spp
+
+
+def run_documented_suite(script, scratch_name, suite_path, doc, description):
+    """The common start of a script that prints one document from one bench suite: its command line
+    (suite_arguments), the run into docs/measurements/DOC-bench/ (run_suite_into_doc) and the document's
+    first sentences (printed_by, then the load averages around the run). Returns a namespace: args, suite,
+    size, width, height, results, cells, adapter, cpu, spp (per scene), ref_spp (in words), header."""
+    from types import SimpleNamespace
+    args, rtgi = suite_arguments(script, suite_path, doc, description)
+    start = load_average()
+    suite, size, results, cells, adapter, cpu, spp = run_suite_into_doc(
+        rtgi, scratch(scratch_name) / "bench", ROOT / "docs/measurements", args.suite, args.size, args.doc)
+    width, height = (int(v) for v in size.split("x"))
+    header = printed_by(script, args, size, results, adapter, cpu) + " " + load_text(start, load_average())
+    return SimpleNamespace(args=args, suite=suite, size=size, width=width, height=height, results=results,
+                           cells=cells, adapter=adapter, cpu=cpu, spp=spp,
+                           ref_spp="; ".join(f"{k} {v}" for k, v in spp.items()), header=header)
