@@ -26,6 +26,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/light_sampling.wgsl", include_str!("common/light_sampling.wgsl")),
     ("common/direct_light.wgsl", include_str!("common/direct_light.wgsl")),
     ("common/sh.wgsl", include_str!("common/sh.wgsl")),
+    ("common/hsh.wgsl", include_str!("common/hsh.wgsl")),
     ("common/raster.wgsl", include_str!("common/raster.wgsl")),
     ("common/gbuffer.wgsl", include_str!("common/gbuffer.wgsl")),
     ("common/indirect.wgsl", include_str!("common/indirect.wgsl")),
