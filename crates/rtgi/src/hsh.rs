@@ -341,15 +341,7 @@ mod tests {
     use super::*;
 
     fn directions() -> Vec<DVec3> {
-        (0..200)
-            .map(|i| {
-                // A Fibonacci sphere: well spread, both hemispheres.
-                let z = 1.0 - (i as f64 + 0.5) / 100.0;
-                let r = (1.0 - z * z).sqrt();
-                let phi = i as f64 * 2.399_963_229_728_653;
-                DVec3::new(r * phi.cos(), r * phi.sin(), z)
-            })
-            .collect()
+        crate::sequences::fibonacci_directions(200, -1.0)
     }
 
     #[test]
@@ -588,13 +580,9 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     #[test]
     fn wgsl_matches_cpu() {
         let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
-        let mut dirs: Vec<[f32; 4]> = (0..511)
-            .map(|i| {
-                let z = 1.0 - (i as f32 + 0.5) / 511.0;
-                let phi = i as f32 * 2.399_963;
-                let s = (1.0 - z * z).sqrt();
-                [s * phi.cos(), s * phi.sin(), z, 0.0]
-            })
+        let mut dirs: Vec<[f32; 4]> = crate::sequences::fibonacci_directions(511, 0.0)
+            .iter()
+            .map(|d| d.as_vec3().extend(0.0).to_array())
             .collect();
         dirs.push([0.0, 0.0, 1.0, 0.0]);
         let gpu = run_kernel(

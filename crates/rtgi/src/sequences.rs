@@ -12,6 +12,20 @@ pub fn radical_inverse(base: u32, mut i: u32) -> f64 {
     r
 }
 
+/// `n` well-spread unit vectors with z from near 1 down to near `z_min` (−1: the sphere, 0: the upper
+/// hemisphere): a Fibonacci spiral, z uniform in steps of (1 − z_min)/n, φ advancing by the golden angle.
+pub fn fibonacci_directions(n: usize, z_min: f64) -> Vec<glam::DVec3> {
+    const GOLDEN_ANGLE: f64 = 2.399_963_229_728_653;
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (1.0 - z_min) * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = i as f64 * GOLDEN_ANGLE;
+            glam::DVec3::new(r * phi.cos(), r * phi.sin(), z)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::radical_inverse;

@@ -246,14 +246,7 @@ mod tests {
     use std::f32::consts::PI;
 
     fn dirs() -> Vec<Vec3> {
-        (0..200)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 200.0;
-                let phi = i as f32 * 2.399_963;
-                let s = (1.0 - z * z).sqrt();
-                Vec3::new(s * phi.cos(), s * phi.sin(), z)
-            })
-            .collect()
+        crate::sequences::fibonacci_directions(200, -1.0).iter().map(|d| d.as_vec3()).collect()
     }
 
     #[test]
@@ -414,13 +407,10 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     #[test]
     fn wgsl_matches_cpu() {
         let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
-        let dirs: Vec<[f32; 4]> = (0..256)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 256.0;
-                let phi = i as f32 * 2.399_963;
-                let s = (1.0 - z * z).sqrt();
-                [s * phi.cos(), s * phi.sin(), z, 1.0 + (i % 7) as f32 * 13.0]
-            })
+        let dirs: Vec<[f32; 4]> = crate::sequences::fibonacci_directions(256, -1.0)
+            .iter()
+            .enumerate()
+            .map(|(i, d)| d.as_vec3().extend(1.0 + (i % 7) as f32 * 13.0).to_array())
             .collect();
         let gpu = run_kernel(
             &ctx,
