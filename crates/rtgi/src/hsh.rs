@@ -15,6 +15,9 @@
 use glam::{DMat3, DVec3};
 use std::f64::consts::PI;
 
+/// The highest order common/hsh.wgsl evaluates (its HSH_MAX_ORDER; a test keeps the two equal).
+pub const MAX_GPU_ORDER: usize = 10;
+
 /// Coefficients of an order-`n` expansion (bands 0..n).
 pub fn count(order: usize) -> usize {
     order * order
@@ -202,6 +205,11 @@ pub fn sh_rotation(order: usize, r: DMat3) -> ShRotationN {
 }
 
 impl ShRotationN {
+    /// Band l's (2l+1)² matrix, row-major.
+    pub fn band(&self, l: usize) -> &[f64] {
+        &self.bands[l]
+    }
+
     pub fn apply(&self, c: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; count(self.order)];
         for (l, m) in self.bands.iter().enumerate() {
@@ -692,7 +700,19 @@ mod gpu_tests {
     use crate::gpu::kernel::run_kernel;
     use crate::gpu::{GpuContext, GpuOptions};
 
-    const ORDER: usize = 10;
+    const ORDER: usize = MAX_GPU_ORDER;
+
+    #[test]
+    fn the_wgsl_maximum_order_is_the_rust_one() {
+        let wgsl = include_str!("shaders/common/hsh.wgsl");
+        let order = format!("const HSH_MAX_ORDER: u32 = {MAX_GPU_ORDER}u;");
+        let coefficients = format!("const HSH_MAX_COEFFICIENTS: u32 = {}u;", count(MAX_GPU_ORDER));
+        assert!(
+            wgsl.contains(&order) && wgsl.contains(&coefficients),
+            "common/hsh.wgsl must say {order} {coefficients}"
+        );
+    }
+
     const SHADER: &str = "#import common/hsh.wgsl
 @group(0) @binding(0) var<storage, read> input: array<vec4f>;
 @group(0) @binding(1) var<storage, read_write> output: array<f32>;
@@ -706,8 +726,10 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     hsh_basis_into(&h, HSH_MAX_ORDER, d);
     sh_basis_into(&y, HSH_MAX_ORDER, d);
     for (var i = 0u; i < HSH_MAX_COEFFICIENTS; i++) {
-        output[id.x * 200u + i] = h[i];
-        output[id.x * 200u + 100u + i] = y[i];
+        output[id.x * 400u + i] = h[i];
+        output[id.x * 400u + 100u + i] = y[i];
+        output[id.x * 400u + 200u + i] = hsh_one(i, d);
+        output[id.x * 400u + 300u + i] = sh_one(i, d);
     }
 }";
 
@@ -727,15 +749,17 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             SHADER,
             bytemuck::cast_slice(&dirs),
             dirs.len() as u32,
-            dirs.len() * 200,
+            dirs.len() * 400,
         )
         .expect("kernel");
         let mut worst: f64 = 0.0;
         for (k, d) in dirs.iter().enumerate() {
             let d64 = DVec3::new(f64::from(d[0]), f64::from(d[1]), f64::from(d[2]));
-            for (offset, cpu) in [(0, hsh(ORDER, d64)), (100, sh(ORDER, d64))] {
+            let (h, y) = (hsh(ORDER, d64), sh(ORDER, d64));
+            // harmonics_into (all coefficients at once), then harmonic_one (one at a time).
+            for (offset, cpu) in [(0, &h), (100, &y), (200, &h), (300, &y)] {
                 for (i, c) in cpu.iter().enumerate() {
-                    let g = f64::from(gpu[k * 200 + offset + i]);
+                    let g = f64::from(gpu[k * 400 + offset + i]);
                     // Relative to the band's size: Y and H reach a few units at order 10.
                     worst = worst.max((g - c).abs() / (1.0 + c.abs()));
                 }

@@ -471,6 +471,7 @@ warmup = 5
                 "ddgi-gpu.toml",
                 "ddgi-lavapipe.toml",
                 "ddgi.toml",
+                "env-harmonics.toml",
                 "gpu.toml",
                 "igi-cost.toml",
                 "igi.toml",

@@ -9,6 +9,7 @@ pub mod compute;
 pub mod ddgi;
 pub mod direct;
 pub mod discontinuity;
+pub mod env_harmonics;
 #[cfg(test)]
 pub(crate) mod fixture;
 pub mod igi;
@@ -216,6 +217,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         lpv::INFO,
         vxgi::INFO,
         radiance_cache::INFO,
+        env_harmonics::INFO,
     ]
 }
 

@@ -1,0 +1,473 @@
+//! `env-harmonics`: environment lighting of glossy and diffuse surfaces from harmonic coefficients,
+//! the renderer of the thesis's §3.5.3 (Gautron et al. 2004): the environment projected once into SH,
+//! rtgi's BRDF projected per outgoing direction into hemispherical harmonics (HSH) or, as the baseline,
+//! SH; per pixel the environment's SH is turned into the normal's frame, converted to HSH by the sparse
+//! matrix C, and dotted with the BRDF's coefficients. `basis=sampled` estimates the same unshadowed
+//! integral by sampling the BRDF, so the bases' own error can be told apart from the missing
+//! visibility, which none of the three models (the thesis neither). Lights and emitters come from
+//! the direct pass as in `direct`.
+//!
+//! rtgi's BRDF (common/brdf.wgsl) depends on the base colour, metallic and specular factors linearly
+//! once the roughness is fixed, so instead of one table per material the tables hold four scalar lobes
+//! at a ladder of roughnesses (see `tables.wgsl`) and the shading pass recombines them: textured
+//! materials work, and an intermediate roughness is interpolated linearly between two rungs.
+
+use glam::DMat3;
+
+use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::dispatch::workgroups_for;
+use crate::gpu::{GpuContext, Profiler};
+use crate::hsh;
+use crate::params::{ParamKind, ParamSpec};
+use crate::shaders::Defines;
+
+use super::compute::{self, DispatchSlots, storage_texture_entry};
+use super::direct::{DIRECT_PARAMS, DirectLighting, DirectOutput, LightSamples};
+use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, TechniqueSetup};
+
+#[cfg(test)]
+mod tests;
+
+/// The harmonic bases the technique shades with, and the sampled estimate of the same integral.
+pub const BASES: &[&str] = &["hsh", "sh", "sampled"];
+
+/// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
+/// own.
+pub const PARAMS: [ParamSpec; 14] = [
+    DIRECT_PARAMS[0],
+    DIRECT_PARAMS[1],
+    DIRECT_PARAMS[2],
+    DIRECT_PARAMS[3],
+    DIRECT_PARAMS[4],
+    DIRECT_PARAMS[6],
+    DIRECT_PARAMS[7],
+    ParamSpec {
+        name: "basis",
+        kind: ParamKind::Choice(BASES),
+        default: "hsh",
+        doc: "hsh: HSH BRDF × SH environment through C (the thesis); sh: SH BRDF × SH environment; \
+              sampled: the same unshadowed integral by BRDF sampling (the bases' reference)",
+    },
+    ParamSpec {
+        name: "order",
+        kind: ParamKind::Int { min: 1, max: hsh::MAX_GPU_ORDER as i64 },
+        default: "5",
+        doc: "bands of the environment's SH and the BRDF's harmonics (order² coefficients per colour)",
+    },
+    ParamSpec {
+        name: "table_size",
+        kind: ParamKind::Int { min: 2, max: 64 },
+        default: "32",
+        doc: "texels per side of the paraboloid map of outgoing directions of the BRDF tables (the \
+              thesis: 32)",
+    },
+    ParamSpec {
+        name: "table_samples",
+        kind: ParamKind::Int { min: 16, max: 65536 },
+        default: "512",
+        doc: "quasi-random BRDF samples projected per table texel (once, when the technique starts)",
+    },
+    ParamSpec {
+        name: "roughness_levels",
+        kind: ParamKind::Int { min: 2, max: 65 },
+        default: "9",
+        doc: "roughnesses 0 … 1 the GGX tables are built at; others are interpolated linearly",
+    },
+    ParamSpec {
+        name: "projection_bands",
+        kind: ParamKind::Int { min: 16, max: 2048 },
+        default: "512",
+        doc: "the environment's projection grid: equal-area bands in z × as many steps in φ",
+    },
+    ParamSpec {
+        name: "reference_samples",
+        kind: ParamKind::Int { min: 1, max: 4096 },
+        default: "64",
+        doc: "BRDF samples per pixel and frame of basis=sampled",
+    },
+];
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "env-harmonics",
+    description: "environment lighting by an HSH (or SH) BRDF × SH environment dot product, unshadowed \
+                  (Gautron et al. 2004)",
+    params: &PARAMS,
+    needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
+    motion: super::Motion::Restarts,
+    validate: super::independent_params,
+    create,
+};
+
+/// Invocations per workgroup of the table and projection passes.
+const WORKGROUP: u32 = 64;
+/// Samples per table texel and φ steps per projection band in one dispatch.
+const SAMPLES_PER_DISPATCH: u32 = 64;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Basis {
+    Hsh,
+    Sh,
+    Sampled,
+}
+
+/// The setup passes of the harmonic bases: BRDF tables (once) and the environment's projection (again
+/// whenever the environment changes).
+struct Harmonics {
+    tables: wgpu::ComputePipeline,
+    tables_group: wgpu::BindGroup,
+    /// Folds HSH tables with C (absent for SH).
+    fold: Option<wgpu::ComputePipeline>,
+    tables_slots: DispatchSlots,
+    /// Table entries, one invocation each.
+    table_elements: u32,
+    tables_built: bool,
+    partial: wgpu::ComputePipeline,
+    reduce: wgpu::ComputePipeline,
+    projection_group: wgpu::BindGroup,
+    projection_slots: DispatchSlots,
+    partials: wgpu::Buffer,
+    bands: u32,
+    coefficients: u32,
+    projected: bool,
+    table_bytes: u64,
+    max_workgroups: u32,
+}
+
+struct EnvHarmonics {
+    direct: DirectLighting,
+    shade: wgpu::ComputePipeline,
+    shade_group: wgpu::BindGroup,
+    harmonics: Option<Harmonics>,
+}
+
+/// The order-`order` SH matrices of Rx(90°), band by band (block l at l(4l² − 1)/3), as shade.wgsl
+/// reads them.
+pub fn rotation_x90_blocks(order: usize) -> Vec<f32> {
+    let r = hsh::sh_rotation(order, DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2));
+    (0..order).flat_map(|l| r.band(l).iter().map(|&x| x as f32).collect::<Vec<_>>()).collect()
+}
+
+/// The SH coefficients of f seen from the frame of the unit normal `n`: g(d) = f(R d) with
+/// R = Rz(φ) Ry(θ) taking +z to `n`, by the decomposition shade.wgsl uses (Z turns and the one X
+/// matrix), and the direction `d` in that frame. The CPU twin of `harmonic_environment`'s turn.
+pub fn to_normal_frame(c: &[f64], order: usize, n: glam::DVec3, d: glam::DVec3) -> (Vec<f64>, glam::DVec3) {
+    let theta = n.z.clamp(-1.0, 1.0).acos();
+    let phi = if n.x.abs() + n.y.abs() > 0.0 { n.y.atan2(n.x) } else { 0.0 };
+    let x90 = hsh::sh_rotation(order, DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2));
+    let x90_inverse = hsh::sh_rotation(order, DMat3::from_rotation_x(-std::f64::consts::FRAC_PI_2));
+    let g = hsh::rotate_z(c, order, -phi);
+    let g = x90.apply(&g);
+    let g = hsh::rotate_z(&g, order, -theta);
+    let g = x90_inverse.apply(&g);
+    let local = DMat3::from_rotation_y(-theta) * DMat3::from_rotation_z(-phi) * d;
+    (g, local)
+}
+
+fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
+    let ctx = setup.ctx;
+    let p = setup.params;
+    let basis = match p.choice("basis") {
+        "sh" => Basis::Sh,
+        "sampled" => Basis::Sampled,
+        _ => Basis::Hsh,
+    };
+    let order = p.int("order") as u32;
+    let table_size = p.int("table_size") as u32;
+    let levels = p.int("roughness_levels") as u32;
+    let table_samples = p.int("table_samples") as u32;
+    let bands = p.int("projection_bands") as u32;
+    let coefficients = order * order;
+    let (w, h) = (setup.frame.width, setup.frame.height);
+
+    // The environment is this technique's: the direct pass adds lights and emitters only.
+    let direct_target = compute::storage_texture(ctx, "env-harmonics direct", w, h, OUTPUT_FORMAT);
+    let samples = LightSamples { area: p.int("area_samples") as u32, environment: 0 };
+    let direct = DirectLighting::with_samples(setup, &direct_target, DirectOutput::Replace, samples)?;
+
+    let defines = Defines::new()
+        .u32("TABLE_SIZE", table_size)
+        .u32("ROUGHNESS_LEVELS", levels)
+        .u32("TABLE_SAMPLES", table_samples)
+        .u32("SAMPLES_PER_DISPATCH", SAMPLES_PER_DISPATCH)
+        .u32("PROJECTION_BANDS", bands)
+        .u32("PHI_PER_DISPATCH", SAMPLES_PER_DISPATCH)
+        .u32("REFERENCE_SAMPLES", p.int("reference_samples") as u32)
+        .bool("HSH_BASIS", basis == Basis::Hsh)
+        .bool("BASIS_SAMPLED", basis == Basis::Sampled);
+    let defines = setup.gpu_scene.bvh_defines(defines);
+    let storage = |label: &str, data: &[f32]| {
+        use wgpu::util::DeviceExt;
+        ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(if data.is_empty() { &[0.0f32] } else { data }),
+            usage: wgpu::BufferUsages::STORAGE,
+        })
+    };
+    let harmonic = basis != Basis::Sampled;
+    let tables_count = 2 + 2 * levels;
+    let table_floats = u64::from(tables_count * table_size * table_size * coefficients);
+    let table_bytes = if harmonic { table_floats * 4 } else { 4 };
+    if table_bytes > ctx.limits().max_storage_buffer_binding_size {
+        return Err(RenderError::InvalidSettings(format!(
+            "env-harmonics: the BRDF tables need {table_bytes} bytes, over the device's storage-buffer \
+             limit of {}; lower table_size, roughness_levels or order",
+            ctx.limits().max_storage_buffer_binding_size
+        )));
+    }
+    let tables = compute::storage_buffer(ctx, "env-harmonics brdf tables", table_bytes);
+    // The HSH tables folded with C (what shading reads); the SH tables are read as they are.
+    let folded = compute::storage_buffer(
+        ctx,
+        "env-harmonics folded brdf tables",
+        if basis == Basis::Hsh { table_bytes } else { 4 },
+    );
+    let environment_sh =
+        compute::storage_buffer(ctx, "env-harmonics environment sh", 16 * u64::from(coefficients));
+    let rotation = storage(
+        "env-harmonics rotation x90",
+        &if harmonic { rotation_x90_blocks(order as usize) } else { Vec::new() },
+    );
+    let conversion = storage(
+        "env-harmonics conversion",
+        &if basis == Basis::Hsh {
+            hsh::conversion(order as usize, order as usize).iter().flatten().map(|&x| x as f32).collect()
+        } else {
+            Vec::new()
+        },
+    );
+
+    fn layouts<'a>(
+        setup: &'a TechniqueSetup,
+        own: &'a wgpu::BindGroupLayout,
+    ) -> [&'a wgpu::BindGroupLayout; 3] {
+        [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, own]
+    }
+    let read_only = |b: u32| compute::storage_buffer_entry(b, true);
+    let shade_layout = compute::layout(
+        ctx,
+        "env-harmonics shade",
+        &[
+            compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
+            storage_texture_entry(1, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
+            read_only(2),
+            read_only(3),
+            read_only(4),
+            compute::uniform_entry(5),
+        ],
+    );
+    let shape = {
+        use wgpu::util::DeviceExt;
+        ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("env-harmonics shape"),
+            contents: bytemuck::cast_slice(&[order, 0, 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+    };
+    let (direct_view, output_view) =
+        (direct_target.create_view(&Default::default()), setup.output.create_view(&Default::default()));
+    let shade_group = compute::bind_group(
+        ctx,
+        "env-harmonics shade",
+        &shade_layout,
+        &[
+            wgpu::BindingResource::TextureView(&direct_view),
+            wgpu::BindingResource::TextureView(&output_view),
+            environment_sh.as_entire_binding(),
+            rotation.as_entire_binding(),
+            if basis == Basis::Hsh { folded.as_entire_binding() } else { tables.as_entire_binding() },
+            shape.as_entire_binding(),
+        ],
+    );
+    let shade = compute::pipeline(
+        ctx,
+        "env-harmonics shade",
+        include_str!("shade.wgsl"),
+        defines.clone(),
+        "main",
+        &layouts(setup, &shade_layout),
+    )?;
+
+    let harmonics = if harmonic {
+        let first_samples: Vec<[u32; 4]> = (0..table_samples.div_ceil(SAMPLES_PER_DISPATCH))
+            .map(|i| [i * SAMPLES_PER_DISPATCH, order, 0, 0])
+            .collect();
+        let tables_slots = DispatchSlots::new(ctx, "env-harmonics table samples", &first_samples);
+        let tables_layout = compute::layout(
+            ctx,
+            "env-harmonics tables",
+            &[
+                compute::storage_buffer_entry(0, false),
+                tables_slots.entry(1),
+                compute::storage_buffer_entry(2, true),
+                compute::storage_buffer_entry(3, false),
+            ],
+        );
+        let tables_group = compute::bind_group(
+            ctx,
+            "env-harmonics tables",
+            &tables_layout,
+            &[
+                tables.as_entire_binding(),
+                tables_slots.resource(),
+                conversion.as_entire_binding(),
+                folded.as_entire_binding(),
+            ],
+        );
+        let table_pipeline = |entry: &str| {
+            compute::pipeline(
+                ctx,
+                "env-harmonics tables",
+                include_str!("tables.wgsl"),
+                defines.clone(),
+                entry,
+                &layouts(setup, &tables_layout),
+            )
+        };
+        let first_phis: Vec<[u32; 4]> = (0..bands.div_ceil(SAMPLES_PER_DISPATCH))
+            .map(|i| [i * SAMPLES_PER_DISPATCH, order, 0, 0])
+            .collect();
+        let projection_slots = DispatchSlots::new(ctx, "env-harmonics projection steps", &first_phis);
+        let partials =
+            compute::storage_buffer(ctx, "env-harmonics partial sums", 16 * u64::from(bands * coefficients));
+        let projection_layout = compute::layout(
+            ctx,
+            "env-harmonics projection",
+            &[
+                compute::storage_buffer_entry(0, false),
+                compute::storage_buffer_entry(1, false),
+                projection_slots.entry(2),
+            ],
+        );
+        let projection_group = compute::bind_group(
+            ctx,
+            "env-harmonics projection",
+            &projection_layout,
+            &[partials.as_entire_binding(), environment_sh.as_entire_binding(), projection_slots.resource()],
+        );
+        let project = |entry: &str| {
+            compute::pipeline(
+                ctx,
+                "env-harmonics projection",
+                include_str!("project.wgsl"),
+                defines.clone(),
+                entry,
+                &layouts(setup, &projection_layout),
+            )
+        };
+        Some(Harmonics {
+            tables: table_pipeline("main")?,
+            fold: (basis == Basis::Hsh).then(|| table_pipeline("fold")).transpose()?,
+            tables_group,
+            tables_slots,
+            table_elements: tables_count * table_size * table_size * coefficients,
+            tables_built: false,
+            partial: project("partial")?,
+            reduce: project("reduce")?,
+            projection_group,
+            projection_slots,
+            partials,
+            bands,
+            coefficients,
+            projected: false,
+            table_bytes,
+            max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
+        })
+    } else {
+        None
+    };
+    Ok(Box::new(EnvHarmonics { direct, shade, shade_group, harmonics }))
+}
+
+impl Harmonics {
+    /// Builds the BRDF tables on the first frame and projects the environment when it is new.
+    fn prepare(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
+        if !self.tables_built {
+            profiler.pass(fc.ctx, "brdf tables", |encoder| {
+                let [x, y, _] = workgroups_for(self.table_elements, WORKGROUP, self.max_workgroups);
+                let mut pass =
+                    crate::gpu::dispatch::compute_pass(encoder, "brdf tables", &self.tables, &groups);
+                for offset in self.tables_slots.offsets() {
+                    pass.set_bind_group(2, &self.tables_group, &[offset]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                if let Some(fold) = &self.fold {
+                    pass.set_pipeline(fold);
+                    pass.set_bind_group(2, &self.tables_group, &[0]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+            })?;
+            self.tables_built = true;
+        }
+        if !self.projected {
+            profiler.pass(fc.ctx, "environment projection", |encoder| {
+                encoder.clear_buffer(&self.partials, 0, None);
+                let mut pass = crate::gpu::dispatch::compute_pass(
+                    encoder,
+                    "environment projection",
+                    &self.partial,
+                    &groups,
+                );
+                let [x, y, _] =
+                    workgroups_for(self.bands * self.coefficients, WORKGROUP, self.max_workgroups);
+                for offset in self.projection_slots.offsets() {
+                    pass.set_bind_group(2, &self.projection_group, &[offset]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                pass.set_pipeline(&self.reduce);
+                pass.set_bind_group(2, &self.projection_group, &[0]);
+                pass.dispatch_workgroups(self.coefficients.div_ceil(WORKGROUP), 1, 1);
+            })?;
+            self.projected = true;
+        }
+        Ok(())
+    }
+}
+
+impl Technique for EnvHarmonics {
+    fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        if let Some(h) = self.harmonics.as_mut() {
+            h.prepare(fc, profiler)?;
+        }
+        self.direct.render(fc, profiler)?;
+        compute::frame_pass(fc, profiler, "environment shading", &self.shade, &self.shade_group)
+    }
+
+    // Lights and emitters are the direct pass's, read every frame; a new environment is projected
+    // again before the next frame; the BRDF tables depend on nothing in the scene.
+    fn scene_changed(
+        &mut self,
+        _: &GpuContext,
+        _: &crate::gpu::GpuScene,
+        change: super::SceneChange,
+    ) -> Result<bool, RenderError> {
+        if let (super::SceneChange::Environment, Some(h)) = (change, self.harmonics.as_mut()) {
+            h.projected = false;
+        }
+        Ok(true)
+    }
+
+    fn counters(
+        &mut self,
+        _: &GpuContext,
+        _: &super::Measured,
+    ) -> Result<std::collections::BTreeMap<String, f64>, RenderError> {
+        let mut c = std::collections::BTreeMap::from([
+            // The direct pass's target and the output, both f32 RGBA.
+            ("output_bytes_per_pixel".to_string(), 32.0),
+        ]);
+        if let Some(h) = &self.harmonics {
+            c.insert("brdf_table_bytes".to_string(), h.table_bytes as f64);
+            c.insert("coefficients_per_colour".to_string(), f64::from(h.coefficients));
+        }
+        Ok(c)
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        vec![
+            "env-harmonics: environment light is unshadowed (no visibility), as in the thesis's renderer"
+                .into(),
+        ]
+    }
+}
