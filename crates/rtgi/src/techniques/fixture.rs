@@ -5,7 +5,7 @@ use crate::frame::{FrameResources, FrameSettings, OUTPUT_FORMAT, ShadowSettings}
 use crate::gpu::{GpuContext, GpuOptions, GpuScene, Profiler, TimingMode};
 use crate::params::ParamValues;
 
-use super::{TechniqueSetup, compute};
+use super::{FrameContext, Technique, TechniqueSetup, compute};
 
 pub struct Fixture {
     pub ctx: GpuContext,
@@ -57,6 +57,22 @@ impl Fixture {
             frame: &self.frame,
             params,
             output: &self.output,
+        }
+    }
+
+    /// Renders frames 0 … `frames` − 1 of `technique` (frame counter = sample index = k), each a
+    /// profiler frame of its own.
+    pub fn render_frames(&mut self, technique: &mut dyn Technique, frames: u32) {
+        let mut profiler = Profiler::new(&self.ctx, TimingMode::Frame);
+        for k in 0..frames {
+            let mut view = self.frame.view;
+            view.frame_counter = k;
+            view.sample_index = k;
+            self.frame.set_view(&self.ctx, &view, 0);
+            let fc = FrameContext { ctx: &self.ctx, gpu_scene: &self.gpu_scene, frame: &self.frame, view };
+            profiler.begin_frame(&self.ctx);
+            technique.render_frame(&fc, &mut profiler).expect("frame");
+            profiler.end_frame(&self.ctx).expect("frame end");
         }
     }
 }

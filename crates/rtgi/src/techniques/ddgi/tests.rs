@@ -300,20 +300,6 @@ fn a_half_float_atlas_converges_within_its_storage_step() {
     assert!(largest <= 5.0, "a texel {largest} steps from {target}");
 }
 
-fn step_frames(f: &mut crate::techniques::fixture::Fixture, ddgi: &mut Ddgi, frames: u32) {
-    let mut profiler = Profiler::new(&f.ctx, TimingMode::Frame);
-    for k in 0..frames {
-        let mut view = f.frame.view;
-        view.frame_counter = k;
-        view.sample_index = k;
-        f.frame.set_view(&f.ctx, &view, 0);
-        let fc = FrameContext { ctx: &f.ctx, gpu_scene: &f.gpu_scene, frame: &f.frame, view };
-        profiler.begin_frame(&f.ctx);
-        ddgi.render_frame(&fc, &mut profiler).expect("frame");
-        profiler.end_frame(&f.ctx).expect("frame end");
-    }
-}
-
 /// The white furnace (every wall emits L_e and reflects ρ): the radiance everywhere is L_e / (1 − ρ).
 /// With emitters=probes the probes carry all of it, so every probe's irradiance must converge to
 /// π·L_e / (1 − ρ) in every direction — all bounces, added one per frame through the previous frame's
@@ -334,7 +320,7 @@ fn the_furnace_converges_to_its_exact_radiance_through_the_probes() {
             ("classification", "false"),
         ]);
         let mut ddgi = Ddgi::new(&f.setup(&p)).expect("ddgi");
-        step_frames(&mut f, &mut ddgi, 60);
+        f.render_frames(&mut ddgi, 60);
         let atlas = read_atlas(&f.ctx, &ddgi.irradiance, ddgi.current());
         let expected = pi * if emitters == "probes" { exact } else { exact - emission };
         let texels: Vec<f32> = tile_texels(&ddgi.irradiance, ddgi.grid.probes())
@@ -377,7 +363,7 @@ fn relocation_moves_probes_out_of_the_blocks_within_the_limit() {
     for relocation in ["false", "true"] {
         let p = params(&[("relocation", relocation), ("classification", "false")]);
         let mut ddgi = Ddgi::new(&f.setup(&p)).expect("ddgi");
-        step_frames(&mut f, &mut ddgi, 2);
+        f.render_frames(&mut ddgi, 2);
         let (back, traced) = ddgi.ray_counts(&f.ctx).expect("ray stats");
         fraction.push(f64::from(back) / f64::from(traced));
         let states = ddgi.read_states(&f.ctx).expect("states");
@@ -409,7 +395,7 @@ fn classification_keeps_exactly_the_probes_with_a_surface_within_a_cell() {
     let mut f = fixture_with("furnace", &[], 16, 16);
     let p = params(&[("probe_count", "4"), ("relocation", "false"), ("format", "rgba32float")]);
     let mut ddgi = Ddgi::new(&f.setup(&p)).expect("ddgi");
-    step_frames(&mut f, &mut ddgi, 3);
+    f.render_frames(&mut ddgi, 3);
     let states = ddgi.read_states(&f.ctx).expect("states");
     assert_eq!(ddgi.grid.counts, [4, 4, 4]);
     for (slot, s) in states.iter().enumerate() {
@@ -444,7 +430,7 @@ fn an_update_budget_walks_through_the_probes_in_turn() {
     let probes = ddgi.grid.probes() as usize;
     assert_eq!(probes, 27);
     for frame in 1..=4usize {
-        step_frames(&mut f, &mut ddgi, 1);
+        f.render_frames(&mut ddgi, 1);
         let states = ddgi.read_states(&f.ctx).expect("states");
         let updated = (frame * 10).min(probes);
         let atlas = read_atlas(&f.ctx, &ddgi.irradiance, ddgi.current());
@@ -485,7 +471,7 @@ fn a_camera_volume_scrolls_by_whole_cells_and_refreshes_only_the_entered_plane()
         let mut view = f.frame.view;
         view.camera.position = position;
         f.frame.set_view(&f.ctx, &view, 0);
-        step_frames(f, ddgi, 1);
+        f.render_frames(ddgi, 1);
         ddgi.read_states(&f.ctx).expect("states")
     };
     run(&mut f, &mut ddgi, camera);
@@ -520,7 +506,7 @@ fn probe_states_settle_within_the_settling_frames() {
         let mut previous = ddgi.read_states(&f.ctx).expect("states");
         let mut changes = Vec::new();
         for _ in 0..2 * SETTLE_FRAMES {
-            step_frames(&mut f, &mut ddgi, 1);
+            f.render_frames(&mut ddgi, 1);
             ddgi.settle_frames_left = 1;
             let states = ddgi.read_states(&f.ctx).expect("states");
             let changed = |a: &ProbeState, b: &ProbeState| {

@@ -16,7 +16,7 @@ use glam::DMat3;
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
-use crate::gpu::{GpuContext, Profiler};
+use crate::gpu::{BufferBuilder, GpuContext, Profiler};
 use crate::hsh;
 use crate::params::{ParamKind, ParamSpec};
 use crate::shaders::Defines;
@@ -196,46 +196,42 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         .bool("HSH_BASIS", basis == Basis::Hsh)
         .bool("BASIS_SAMPLED", basis == Basis::Sampled);
     let defines = setup.gpu_scene.bvh_defines(defines);
-    let storage = |label: &str, data: &[f32]| {
-        use wgpu::util::DeviceExt;
-        ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::cast_slice(if data.is_empty() { &[0.0f32] } else { data }),
-            usage: wgpu::BufferUsages::STORAGE,
-        })
+    // Constant inputs, checked against the device's limits like every buffer (BufferBuilder).
+    let constant = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
+        BufferBuilder::with_contents(label, bytes).usage(usage).build(ctx)
     };
     let harmonic = basis != Basis::Sampled;
     let tables_count = 2 + 2 * levels;
-    let table_floats = u64::from(tables_count * table_size * table_size * coefficients);
-    let table_bytes = if harmonic { table_floats * 4 } else { 4 };
-    if table_bytes > ctx.limits().max_storage_buffer_binding_size {
-        return Err(RenderError::InvalidSettings(format!(
-            "env-harmonics: the BRDF tables need {table_bytes} bytes, over the device's storage-buffer \
-             limit of {}; lower table_size, roughness_levels or order",
-            ctx.limits().max_storage_buffer_binding_size
-        )));
-    }
-    let tables = compute::storage_buffer(ctx, "env-harmonics brdf tables", table_bytes);
+    let table_bytes =
+        if harmonic { 4 * u64::from(tables_count * table_size * table_size * coefficients) } else { 4 };
+    let table_buffer = |label: &str, bytes: u64| {
+        BufferBuilder::new(label, bytes).storage().build(ctx).map_err(|e| {
+            RenderError::InvalidSettings(format!(
+                "env-harmonics: {e}; lower table_size, roughness_levels or order"
+            ))
+        })
+    };
+    let tables = table_buffer("env-harmonics brdf tables", table_bytes)?;
     // The HSH tables folded with C (what shading reads); the SH tables are read as they are.
-    let folded = compute::storage_buffer(
-        ctx,
-        "env-harmonics folded brdf tables",
-        if basis == Basis::Hsh { table_bytes } else { 4 },
-    );
+    let folded =
+        table_buffer("env-harmonics folded brdf tables", if basis == Basis::Hsh { table_bytes } else { 4 })?;
     let environment_sh =
         compute::storage_buffer(ctx, "env-harmonics environment sh", 16 * u64::from(coefficients));
-    let rotation = storage(
+    let rotation = constant(
         "env-harmonics rotation x90",
-        &if harmonic { rotation_x90_blocks(order as usize) } else { Vec::new() },
-    );
-    let conversion = storage(
+        bytemuck::cast_slice(&if harmonic { rotation_x90_blocks(order as usize) } else { Vec::new() }),
+        wgpu::BufferUsages::STORAGE,
+    )?;
+    let conversion = constant(
         "env-harmonics conversion",
-        &if basis == Basis::Hsh {
+        bytemuck::cast_slice::<f32, u8>(&if basis == Basis::Hsh {
             hsh::conversion(order as usize, order as usize).iter().flatten().map(|&x| x as f32).collect()
         } else {
             Vec::new()
-        },
-    );
+        }),
+        wgpu::BufferUsages::STORAGE,
+    )?;
+    let shape = constant("env-harmonics shape", bytemuck::bytes_of(&order), wgpu::BufferUsages::UNIFORM)?;
 
     fn layouts<'a>(
         setup: &'a TechniqueSetup,
@@ -256,14 +252,6 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
             compute::uniform_entry(5),
         ],
     );
-    let shape = {
-        use wgpu::util::DeviceExt;
-        ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("env-harmonics shape"),
-            contents: bytemuck::cast_slice(&[order, 0, 0, 0]),
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
-    };
     let (direct_view, output_view) =
         (direct_target.create_view(&Default::default()), setup.output.create_view(&Default::default()));
     let shade_group = compute::bind_group(

@@ -61,11 +61,6 @@ fn rotate_x90(b: ptr<function, Band>, l: u32, inverse: bool) {
     *b = out;
 }
 
-// The paraboloid map (hsh.rs paraboloid_uv).
-fn paraboloid_uv(d: vec3f) -> vec2f {
-    return 0.5 * (1.0 + d.xy / (max(d.z, 0.0) + 1.0));
-}
-
 // Where a table's four texels around an outgoing direction start, and their bilinear weights.
 struct TableLookup {
     texels: vec4u,

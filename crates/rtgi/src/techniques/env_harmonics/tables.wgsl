@@ -26,17 +26,6 @@ struct Slot {
 @group(2) @binding(0) var<storage, read_write> tables: array<f32>;
 @group(2) @binding(1) var<uniform> slot: Slot;
 
-// The paraboloid map's inverse (hsh.rs paraboloid_direction).
-fn paraboloid_direction(uv: vec2f) -> vec3f {
-    var p = 2.0 * uv - 1.0;
-    let r2 = dot(p, p);
-    if r2 > 1.0 {
-        p /= sqrt(r2);
-    }
-    let q = min(r2, 1.0);
-    return vec3f(2.0 * p, 1.0 - q) / (1.0 + q);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let count = slot.order * slot.order;

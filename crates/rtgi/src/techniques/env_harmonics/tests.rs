@@ -1,7 +1,6 @@
 use glam::{DVec3, Vec3};
 
 use super::*;
-use crate::gpu::TimingMode;
 use crate::gpu::readback::read_texture;
 use crate::params::ParamValues;
 use crate::scene::{Environment, Material};
@@ -72,17 +71,7 @@ fn params(settings: &[(&str, &str)]) -> ParamValues {
 fn render(f: &mut Fixture, settings: &[(&str, &str)], frames: u32) -> Vec<Vec3> {
     let p = params(settings);
     let mut technique = create(&f.setup(&p)).expect("env-harmonics");
-    let mut profiler = Profiler::new(&f.ctx, TimingMode::Frame);
-    for k in 0..frames {
-        let mut view = f.frame.view;
-        view.frame_counter = k;
-        view.sample_index = k;
-        f.frame.set_view(&f.ctx, &view, 0);
-        let fc = FrameContext { ctx: &f.ctx, gpu_scene: &f.gpu_scene, frame: &f.frame, view };
-        profiler.begin_frame(&f.ctx);
-        technique.render_frame(&fc, &mut profiler).expect("frame");
-        profiler.end_frame(&f.ctx).expect("frame end");
-    }
+    f.render_frames(technique.as_mut(), frames);
     let image = read_texture(&f.ctx, &f.output, 16).expect("image");
     bytemuck::cast_slice::<u8, [f32; 4]>(&image).iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect()
 }
