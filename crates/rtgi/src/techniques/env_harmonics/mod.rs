@@ -33,7 +33,7 @@ pub const BASES: &[&str] = &["hsh", "sh", "sampled"];
 
 /// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
 /// own.
-pub const PARAMS: [ParamSpec; 14] = [
+pub const PARAMS: [ParamSpec; 15] = [
     DIRECT_PARAMS[0],
     DIRECT_PARAMS[1],
     DIRECT_PARAMS[2],
@@ -52,7 +52,16 @@ pub const PARAMS: [ParamSpec; 14] = [
         name: "order",
         kind: ParamKind::Int { min: 1, max: hsh::MAX_GPU_ORDER as i64 },
         default: "5",
-        doc: "bands of the environment's SH and the BRDF's harmonics (order² coefficients per colour)",
+        doc: "bands of the BRDF's harmonics (order² coefficients per colour and table texel) and, \
+              unless environment_order says otherwise, of the environment's SH",
+    },
+    ParamSpec {
+        name: "environment_order",
+        kind: ParamKind::Int { min: 0, max: hsh::MAX_GPU_ORDER as i64 },
+        default: "0",
+        doc: "bands of the environment's SH for basis=hsh (0: order); above order, the HSH BRDF meets \
+              more of the environment than an SH BRDF of its size can (the conversion C is \
+              order² × environment_order²), and shading costs environment_order² per colour",
     },
     ParamSpec {
         name: "table_size",
@@ -95,9 +104,29 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
-    validate: super::independent_params,
+    validate,
     create,
 };
+
+fn validate(p: &crate::params::ParamValues) -> Result<(), String> {
+    let environment_order = p.int("environment_order");
+    if p.choice("basis") != "hsh" && environment_order != 0 && environment_order != p.int("order") {
+        return Err(format!(
+            "environment_order applies to basis=hsh only (an SH BRDF of order {} has nothing to meet \
+             the environment's higher bands with); leave it at 0",
+            p.int("order")
+        ));
+    }
+    Ok(())
+}
+
+/// The environment's SH order: `environment_order`, or `order` when that is 0.
+fn environment_order(p: &crate::params::ParamValues) -> u32 {
+    match p.int("environment_order") {
+        0 => p.int("order") as u32,
+        n => n as u32,
+    }
+}
 
 /// Invocations per workgroup of the table and projection passes.
 const WORKGROUP: u32 = 64;
@@ -121,6 +150,8 @@ struct Harmonics {
     tables_slots: DispatchSlots,
     /// Table entries, one invocation each.
     table_elements: u32,
+    /// Folded table entries (HSH), one invocation each.
+    folded_elements: u32,
     tables_built: bool,
     partial: wgpu::ComputePipeline,
     reduce: wgpu::ComputePipeline,
@@ -131,6 +162,8 @@ struct Harmonics {
     coefficients: u32,
     projected: bool,
     table_bytes: u64,
+    /// The HSH tables folded with C (0 for SH, which reads its tables as they are).
+    folded_bytes: u64,
     max_workgroups: u32,
 }
 
@@ -173,11 +206,12 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         _ => Basis::Hsh,
     };
     let order = p.int("order") as u32;
+    let env_order = environment_order(p);
     let table_size = p.int("table_size") as u32;
     let levels = p.int("roughness_levels") as u32;
     let table_samples = p.int("table_samples") as u32;
     let bands = p.int("projection_bands") as u32;
-    let coefficients = order * order;
+    let (brdf_coefficients, coefficients) = (order * order, env_order * env_order);
     let (w, h) = (setup.frame.width, setup.frame.height);
 
     // The environment is this technique's: the direct pass adds lights and emitters only.
@@ -202,36 +236,36 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     };
     let harmonic = basis != Basis::Sampled;
     let tables_count = 2 + 2 * levels;
-    let table_bytes =
-        if harmonic { 4 * u64::from(tables_count * table_size * table_size * coefficients) } else { 4 };
+    let table_entries = |count: u32| u64::from(tables_count * table_size * table_size * count);
+    let table_bytes = if harmonic { 4 * table_entries(brdf_coefficients) } else { 4 };
+    let folded_bytes = if basis == Basis::Hsh { 4 * table_entries(coefficients) } else { 4 };
     let table_buffer = |label: &str, bytes: u64| {
         BufferBuilder::new(label, bytes).storage().build(ctx).map_err(|e| {
             RenderError::InvalidSettings(format!(
-                "env-harmonics: {e}; lower table_size, roughness_levels or order"
+                "env-harmonics: {e}; lower table_size, roughness_levels, order or environment_order"
             ))
         })
     };
     let tables = table_buffer("env-harmonics brdf tables", table_bytes)?;
     // The HSH tables folded with C (what shading reads); the SH tables are read as they are.
-    let folded =
-        table_buffer("env-harmonics folded brdf tables", if basis == Basis::Hsh { table_bytes } else { 4 })?;
+    let folded = table_buffer("env-harmonics folded brdf tables", folded_bytes)?;
     let environment_sh =
         compute::storage_buffer(ctx, "env-harmonics environment sh", 16 * u64::from(coefficients));
     let rotation = constant(
         "env-harmonics rotation x90",
-        bytemuck::cast_slice(&if harmonic { rotation_x90_blocks(order as usize) } else { Vec::new() }),
+        bytemuck::cast_slice(&if harmonic { rotation_x90_blocks(env_order as usize) } else { Vec::new() }),
         wgpu::BufferUsages::STORAGE,
     )?;
     let conversion = constant(
         "env-harmonics conversion",
         bytemuck::cast_slice::<f32, u8>(&if basis == Basis::Hsh {
-            hsh::conversion(order as usize, order as usize).iter().flatten().map(|&x| x as f32).collect()
+            hsh::conversion(order as usize, env_order as usize).iter().flatten().map(|&x| x as f32).collect()
         } else {
             Vec::new()
         }),
         wgpu::BufferUsages::STORAGE,
     )?;
-    let shape = constant("env-harmonics shape", bytemuck::bytes_of(&order), wgpu::BufferUsages::UNIFORM)?;
+    let shape = constant("env-harmonics shape", bytemuck::bytes_of(&env_order), wgpu::BufferUsages::UNIFORM)?;
 
     fn layouts<'a>(
         setup: &'a TechniqueSetup,
@@ -278,7 +312,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
 
     let harmonics = if harmonic {
         let first_samples: Vec<[u32; 4]> = (0..table_samples.div_ceil(SAMPLES_PER_DISPATCH))
-            .map(|i| [i * SAMPLES_PER_DISPATCH, order, 0, 0])
+            .map(|i| [i * SAMPLES_PER_DISPATCH, order, env_order, 0])
             .collect();
         let tables_slots = DispatchSlots::new(ctx, "env-harmonics table samples", &first_samples);
         let tables_layout = compute::layout(
@@ -313,7 +347,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
             )
         };
         let first_phis: Vec<[u32; 4]> = (0..bands.div_ceil(SAMPLES_PER_DISPATCH))
-            .map(|i| [i * SAMPLES_PER_DISPATCH, order, 0, 0])
+            .map(|i| [i * SAMPLES_PER_DISPATCH, env_order, 0, 0])
             .collect();
         let projection_slots = DispatchSlots::new(ctx, "env-harmonics projection steps", &first_phis);
         let partials =
@@ -348,7 +382,8 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
             fold: (basis == Basis::Hsh).then(|| table_pipeline("fold")).transpose()?,
             tables_group,
             tables_slots,
-            table_elements: tables_count * table_size * table_size * coefficients,
+            table_elements: tables_count * table_size * table_size * brdf_coefficients,
+            folded_elements: tables_count * table_size * table_size * coefficients,
             tables_built: false,
             partial: project("partial")?,
             reduce: project("reduce")?,
@@ -359,6 +394,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
             coefficients,
             projected: false,
             table_bytes,
+            folded_bytes: if basis == Basis::Hsh { folded_bytes } else { 0 },
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
         })
     } else {
@@ -381,6 +417,7 @@ impl Harmonics {
                     pass.dispatch_workgroups(x, y, 1);
                 }
                 if let Some(fold) = &self.fold {
+                    let [x, y, _] = workgroups_for(self.folded_elements, WORKGROUP, self.max_workgroups);
                     pass.set_pipeline(fold);
                     pass.set_bind_group(2, &self.tables_group, &[0]);
                     pass.dispatch_workgroups(x, y, 1);
@@ -447,7 +484,8 @@ impl Technique for EnvHarmonics {
         ]);
         if let Some(h) = &self.harmonics {
             c.insert("brdf_table_bytes".to_string(), h.table_bytes as f64);
-            c.insert("coefficients_per_colour".to_string(), f64::from(h.coefficients));
+            c.insert("folded_table_bytes".to_string(), h.folded_bytes as f64);
+            c.insert("environment_coefficients_per_colour".to_string(), f64::from(h.coefficients));
         }
         Ok(c)
     }

@@ -19,8 +19,10 @@
 
 struct Slot {
     first_sample: u32,
-    // A run-time value so that LLVM (lavapipe) does not unroll the per-band loops (see shade.wgsl).
+    // Run-time values so that LLVM (lavapipe) does not unroll the per-band loops (see shade.wgsl).
+    // The BRDF's order, and the environment's (what `fold` writes).
     order: u32,
+    environment_order: u32,
 }
 
 @group(2) @binding(0) var<storage, read_write> tables: array<f32>;
@@ -80,26 +82,28 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     tables[element] += sum / f32(TABLE_SAMPLES);
 }
 
-// T'_j = Σ_i C[i][j] T_i over the i with the m of j: an HSH table's coefficients against the SH
-// environment, once, so that shading costs the same in both bases.
+// T'_j = Σ_i C[i][j] T_i over the HSH i with the m of j: an HSH table's coefficients against the SH
+// environment (j over its environment_order² coefficients, i over the table's order²), once, so that
+// shading costs the same in both bases.
 @group(2) @binding(2) var<storage, read> conversion: array<f32>;
 @group(2) @binding(3) var<storage, read_write> folded: array<f32>;
 
 @compute @workgroup_size(64)
 fn fold(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let count = slot.order * slot.order;
+    let environment_count = slot.environment_order * slot.environment_order;
     // Linear over the (x, y) spread of gpu::dispatch::workgroups_for.
     let element = id.x + id.y * groups.x * 64u;
-    if element >= (2u + 2u * ROUGHNESS_LEVELS) * TABLE_SIZE * TABLE_SIZE * count {
+    if element >= (2u + 2u * ROUGHNESS_LEVELS) * TABLE_SIZE * TABLE_SIZE * environment_count {
         return;
     }
-    let j = element % count;
-    let first = element - j;
+    let j = element % environment_count;
+    let first = (element / environment_count) * count;
     let m = harmonic_lm(j).y;
     var sum = 0.0;
     for (var l = u32(abs(m)); l < slot.order; l++) {
         let i = u32(i32(l * l + l) + m);
-        sum += conversion[i * count + j] * tables[first + i];
+        sum += conversion[i * environment_count + j] * tables[first + i];
     }
     folded[element] = sum;
 }
