@@ -478,6 +478,7 @@ warmup = 5
                 "lpv.toml",
                 "primary.toml",
                 "quick.toml",
+                "radiance-cache-glossy.toml",
                 "radiance-cache.toml",
                 "rsm-timing.toml",
                 "rsm.toml",

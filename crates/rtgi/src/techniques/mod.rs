@@ -5,6 +5,7 @@
 //! radiance into the shared output texture. Adding a technique touches its own folder plus one line in
 //! [`registry`].
 
+pub mod brdf_tables;
 pub mod compute;
 pub mod ddgi;
 pub mod direct;

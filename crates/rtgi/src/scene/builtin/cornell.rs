@@ -16,19 +16,37 @@ use glam::{Quat, Vec3, Vec4};
 
 use super::motion;
 use super::shapes::MeshBuilder;
-use crate::params::{ParamSpec, ParamValues};
+use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::scene::animation::{Interpolation, Property, Sampler, Trs};
 use crate::scene::{Camera, Environment, Light, Material, Mesh, Scene};
 
-pub const PARAMS: &[ParamSpec] = &[motion::animate_param(
-    &["none", "box"],
-    "box: a 12 cm box flies a loop above the blocks, turning once (4 s, LINEAR)",
-)];
-pub const SPOT_PARAMS: &[ParamSpec] = &[motion::animate_param(
-    &["none", "box", "spot"],
-    "box: a 12 cm box flies a loop above the blocks, turning once (4 s, LINEAR); spot: the spot light \
-     sweeps ±25° from side to side (about the view axis, 4 s)",
-)];
+pub const PARAMS: &[ParamSpec] = &[
+    motion::animate_param(
+        &["none", "box"],
+        "box: a 12 cm box flies a loop above the blocks, turning once (4 s, LINEAR)",
+    ),
+    BACK_WALL,
+];
+pub const SPOT_PARAMS: &[ParamSpec] = &[
+    motion::animate_param(
+        &["none", "box", "spot"],
+        "box: a 12 cm box flies a loop above the blocks, turning once (4 s, LINEAR); spot: the spot light \
+         sweeps ±25° from side to side (about the view axis, 4 s)",
+    ),
+    BACK_WALL,
+];
+
+const BACK_WALL: ParamSpec = ParamSpec {
+    name: "back_wall",
+    kind: ParamKind::Choice(&["diffuse", "glossy"]),
+    default: "diffuse",
+    doc: "glossy: the back wall a white metal of roughness 0.55 (GGX α 0.3, about the Phong-20 lobe of the \
+          radiance-caching thesis's glossy Cornell box)",
+};
+
+/// The glossy back wall's roughness: GGX α = 0.55² ≈ 0.30, the Beckmann α √(2 / (n + 2)) of a Phong
+/// exponent n = 20.
+pub const GLOSSY_BACK_WALL_ROUGHNESS: f32 = 0.55;
 
 /// Duration of the animated variants' loops, seconds.
 pub const LOOP_SECONDS: f32 = 4.0;
@@ -60,11 +78,13 @@ enum Lighting {
 }
 
 pub fn build(params: &ParamValues) -> Scene {
-    animate(cornell_box("cornell", Lighting::AreaLight), params.choice("animate"))
+    let scene = cornell_box("cornell", Lighting::AreaLight, params.choice("back_wall") == "glossy");
+    animate(scene, params.choice("animate"))
 }
 
 pub fn build_spot(params: &ParamValues) -> Scene {
-    animate(cornell_box("cornell-spot", Lighting::Spot), params.choice("animate"))
+    let scene = cornell_box("cornell-spot", Lighting::Spot, params.choice("back_wall") == "glossy");
+    animate(scene, params.choice("animate"))
 }
 
 fn animate(mut scene: Scene, motion: &str) -> Scene {
@@ -133,16 +153,28 @@ pub fn spot_light() -> Light {
     }
 }
 
-fn cornell_box(name: &str, lighting: Lighting) -> Scene {
+fn cornell_box(name: &str, lighting: Lighting, glossy_back_wall: bool) -> Scene {
     const WHITE: u32 = 0;
     const RED: u32 = 1;
     const GREEN: u32 = 2;
-    const LIGHT: u32 = 3;
+    let white = Vec3::new(0.725, 0.71, 0.68);
     let mut materials = vec![
-        Material::diffuse("white", Vec3::new(0.725, 0.71, 0.68)),
+        Material::diffuse("white", white),
         Material::diffuse("red", Vec3::new(0.63, 0.065, 0.05)),
         Material::diffuse("green", Vec3::new(0.14, 0.45, 0.091)),
     ];
+    let back = if glossy_back_wall {
+        materials.push(Material {
+            name: "glossy-white-metal".into(),
+            base_color: white.extend(1.0),
+            metallic: 1.0,
+            roughness: GLOSSY_BACK_WALL_ROUGHNESS,
+            ..Default::default()
+        });
+        materials.len() as u32 - 1
+    } else {
+        WHITE
+    };
     // The walls face the inside of the box; UVs in metres.
     let inside = mm(278.0, 274.4, 279.6);
     let mut meshes = Vec::new();
@@ -175,7 +207,7 @@ fn cornell_box(name: &str, lighting: Lighting) -> Scene {
             mm(0.0, CEILING_MM, 559.2),
             mm(556.0, CEILING_MM, 559.2),
         ],
-        WHITE,
+        back,
     );
     // The data's "left wall" is at x ≈ 0.55 m: with a right-handed camera looking along +z, +x is on the left.
     wall(
@@ -201,6 +233,7 @@ fn cornell_box(name: &str, lighting: Lighting) -> Scene {
     let mut lights = Vec::new();
     match lighting {
         Lighting::AreaLight => {
+            let light = materials.len() as u32;
             materials.push(Material::emitter("light", LIGHT_RADIANCE));
             let [x0, z0] = LIGHT_MIN_MM.map(|v| v * MM);
             let [x1, z1] = LIGHT_MAX_MM.map(|v| v * MM);
@@ -212,7 +245,7 @@ fn cornell_box(name: &str, lighting: Lighting) -> Scene {
             ];
             let mut b = MeshBuilder::new();
             b.polygon(&corners, Vec3::NEG_Y, 1.0);
-            meshes.push(b.build("light", LIGHT));
+            meshes.push(b.build("light", light));
         }
         Lighting::Spot => lights.push(spot_light()),
     }

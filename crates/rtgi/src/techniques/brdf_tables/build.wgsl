@@ -1,4 +1,4 @@
-// The BRDF tables of `env-harmonics` (the thesis's §3.5.2, after Kautz et al. 2002): for every outgoing
+// The BRDF tables of techniques/brdf_tables (the thesis's §3.5.2, after Kautz et al. 2002): for every outgoing
 // direction at a texel centre of a TABLE_SIZE² paraboloid map, the harmonic coefficients (HSH, or SH
 // for the baseline) over incoming directions of four cosine-weighted scalar lobes that rtgi's BRDF
 // (common/brdf.wgsl) is a linear combination of, at ROUGHNESS_LEVELS roughnesses:
@@ -7,11 +7,11 @@
 //   table 2 + 2r:   D V cos θi                       (GGX at roughness r / (ROUGHNESS_LEVELS − 1))
 //   table 3 + 2r:   S(v·h) D V cos θi
 // with S the Schlick weight. The shading pass recombines them with the material's base colour,
-// metallic and specular factors exactly as brdf_terms does. Each invocation owns one coefficient of
+// metallic and specular factors exactly as brdf_terms does (lookup.wgsl). Each invocation owns one coefficient of
 // one (table, texel), the buffer element at its linear index, and adds SAMPLES_PER_DISPATCH quasi-random samples
 // per dispatch (long loops in one invocation are unsafe on lavapipe): cosine-distributed for tables
 // 0–1, GGX visible normals for the others, whose weights f cos / pdf are then smooth (G2/G1) even at
-// the smoothest roughness. `fold` then turns HSH tables into their SH equivalent (see shade.wgsl).
+// the smoothest roughness.
 
 #import common/brdf.wgsl
 #import common/hsh.wgsl
@@ -19,10 +19,9 @@
 
 struct Slot {
     first_sample: u32,
-    // Run-time values so that LLVM (lavapipe) does not unroll the per-band loops (see shade.wgsl).
-    // The BRDF's order, and the environment's (what `fold` writes).
+    // The order as a run-time value (index arithmetic only; compile-time orders have cost lavapipe
+    // minutes of compilation elsewhere, see env_harmonics/shade.wgsl).
     order: u32,
-    environment_order: u32,
 }
 
 @group(2) @binding(0) var<storage, read_write> tables: array<f32>;
@@ -80,30 +79,4 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
         }
     }
     tables[element] += sum / f32(TABLE_SAMPLES);
-}
-
-// T'_j = Σ_i C[i][j] T_i over the HSH i with the m of j: an HSH table's coefficients against the SH
-// environment (j over its environment_order² coefficients, i over the table's order²), once, so that
-// shading costs the same in both bases.
-@group(2) @binding(2) var<storage, read> conversion: array<f32>;
-@group(2) @binding(3) var<storage, read_write> folded: array<f32>;
-
-@compute @workgroup_size(64)
-fn fold(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
-    let count = slot.order * slot.order;
-    let environment_count = slot.environment_order * slot.environment_order;
-    // Linear over the (x, y) spread of gpu::dispatch::workgroups_for.
-    let element = id.x + id.y * groups.x * 64u;
-    if element >= (2u + 2u * ROUGHNESS_LEVELS) * TABLE_SIZE * TABLE_SIZE * environment_count {
-        return;
-    }
-    let j = element % environment_count;
-    let first = (element / environment_count) * count;
-    let m = harmonic_lm(j).y;
-    var sum = 0.0;
-    for (var l = u32(abs(m)); l < slot.order; l++) {
-        let i = u32(i32(l * l + l) + m);
-        sum += conversion[i * environment_count + j] * tables[first + i];
-    }
-    folded[element] = sum;
 }

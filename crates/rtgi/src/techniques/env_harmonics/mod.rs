@@ -21,6 +21,7 @@ use crate::hsh;
 use crate::params::{ParamKind, ParamSpec};
 use crate::shaders::Defines;
 
+use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL};
 use super::compute::{self, DispatchSlots, storage_texture_entry};
 use super::direct::{DIRECT_PARAMS, DirectLighting, DirectOutput, LightSamples};
 use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, TechniqueSetup};
@@ -140,19 +141,21 @@ enum Basis {
     Sampled,
 }
 
-/// The setup passes of the harmonic bases: BRDF tables (once) and the environment's projection (again
-/// whenever the environment changes).
+/// The fold of HSH tables with C (fold.wgsl).
+struct Fold {
+    pipeline: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    /// Folded table entries, one invocation each.
+    elements: u32,
+    bytes: u64,
+    done: bool,
+}
+
+/// The setup passes of the harmonic bases: BRDF tables and their fold (once) and the environment's
+/// projection (again whenever the environment changes).
 struct Harmonics {
-    tables: wgpu::ComputePipeline,
-    tables_group: wgpu::BindGroup,
-    /// Folds HSH tables with C (absent for SH).
-    fold: Option<wgpu::ComputePipeline>,
-    tables_slots: DispatchSlots,
-    /// Table entries, one invocation each.
-    table_elements: u32,
-    /// Folded table entries (HSH), one invocation each.
-    folded_elements: u32,
-    tables_built: bool,
+    tables: BrdfTables,
+    fold: Option<Fold>,
     partial: wgpu::ComputePipeline,
     reduce: wgpu::ComputePipeline,
     projection_group: wgpu::BindGroup,
@@ -161,9 +164,6 @@ struct Harmonics {
     bands: u32,
     coefficients: u32,
     projected: bool,
-    table_bytes: u64,
-    /// The HSH tables folded with C (0 for SH, which reads its tables as they are).
-    folded_bytes: u64,
     max_workgroups: u32,
 }
 
@@ -211,7 +211,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     let levels = p.int("roughness_levels") as u32;
     let table_samples = p.int("table_samples") as u32;
     let bands = p.int("projection_bands") as u32;
-    let (brdf_coefficients, coefficients) = (order * order, env_order * env_order);
+    let coefficients = env_order * env_order;
     let (w, h) = (setup.frame.width, setup.frame.height);
 
     // The environment is this technique's: the direct pass adds lights and emitters only.
@@ -219,36 +219,40 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     let samples = LightSamples { area: p.int("area_samples") as u32, environment: 0 };
     let direct = DirectLighting::with_samples(setup, &direct_target, DirectOutput::Replace, samples)?;
 
-    let defines = Defines::new()
-        .u32("TABLE_SIZE", table_size)
-        .u32("ROUGHNESS_LEVELS", levels)
-        .u32("TABLE_SAMPLES", table_samples)
-        .u32("SAMPLES_PER_DISPATCH", SAMPLES_PER_DISPATCH)
+    let harmonic = basis != Basis::Sampled;
+    let shape = BrdfTableShape {
+        hsh: basis == Basis::Hsh,
+        order,
+        size: table_size,
+        roughness_levels: levels,
+        samples: table_samples,
+    };
+    let defines = shape
+        .defines(Defines::new())
         .u32("PROJECTION_BANDS", bands)
         .u32("PHI_PER_DISPATCH", SAMPLES_PER_DISPATCH)
         .u32("REFERENCE_SAMPLES", p.int("reference_samples") as u32)
-        .bool("HSH_BASIS", basis == Basis::Hsh)
         .bool("BASIS_SAMPLED", basis == Basis::Sampled);
     let defines = setup.gpu_scene.bvh_defines(defines);
     // Constant inputs, checked against the device's limits like every buffer (BufferBuilder).
     let constant = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
         BufferBuilder::with_contents(label, bytes).usage(usage).build(ctx)
     };
-    let harmonic = basis != Basis::Sampled;
-    let tables_count = 2 + 2 * levels;
-    let table_entries = |count: u32| u64::from(tables_count * table_size * table_size * count);
-    let table_bytes = if harmonic { 4 * table_entries(brdf_coefficients) } else { 4 };
-    let folded_bytes = if basis == Basis::Hsh { 4 * table_entries(coefficients) } else { 4 };
-    let table_buffer = |label: &str, bytes: u64| {
-        BufferBuilder::new(label, bytes).storage().build(ctx).map_err(|e| {
-            RenderError::InvalidSettings(format!(
-                "env-harmonics: {e}; lower table_size, roughness_levels, order or environment_order"
-            ))
-        })
-    };
-    let tables = table_buffer("env-harmonics brdf tables", table_bytes)?;
+    let tables = harmonic.then(|| BrdfTables::new(setup, shape, "env-harmonics")).transpose()?;
     // The HSH tables folded with C (what shading reads); the SH tables are read as they are.
-    let folded = table_buffer("env-harmonics folded brdf tables", folded_bytes)?;
+    let folded_bytes = if basis == Basis::Hsh {
+        4 * u64::from(shape.tables() * table_size * table_size * coefficients)
+    } else {
+        4
+    };
+    let folded = BufferBuilder::new("env-harmonics folded brdf tables", folded_bytes)
+        .storage()
+        .build(ctx)
+        .map_err(|e| {
+            RenderError::InvalidSettings(format!(
+                "env-harmonics: {e}; lower table_size, roughness_levels or environment_order"
+            ))
+        })?;
     let environment_sh =
         compute::storage_buffer(ctx, "env-harmonics environment sh", 16 * u64::from(coefficients));
     let rotation = constant(
@@ -256,16 +260,8 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         bytemuck::cast_slice(&if harmonic { rotation_x90_blocks(env_order as usize) } else { Vec::new() }),
         wgpu::BufferUsages::STORAGE,
     )?;
-    let conversion = constant(
-        "env-harmonics conversion",
-        bytemuck::cast_slice::<f32, u8>(&if basis == Basis::Hsh {
-            hsh::conversion(order as usize, env_order as usize).iter().flatten().map(|&x| x as f32).collect()
-        } else {
-            Vec::new()
-        }),
-        wgpu::BufferUsages::STORAGE,
-    )?;
-    let shape = constant("env-harmonics shape", bytemuck::bytes_of(&env_order), wgpu::BufferUsages::UNIFORM)?;
+    let shading_shape =
+        constant("env-harmonics shape", bytemuck::bytes_of(&env_order), wgpu::BufferUsages::UNIFORM)?;
 
     fn layouts<'a>(
         setup: &'a TechniqueSetup,
@@ -297,54 +293,79 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
             wgpu::BindingResource::TextureView(&output_view),
             environment_sh.as_entire_binding(),
             rotation.as_entire_binding(),
-            if basis == Basis::Hsh { folded.as_entire_binding() } else { tables.as_entire_binding() },
-            shape.as_entire_binding(),
+            // basis=sampled reads no table: the 4 bytes of `folded` stand in.
+            match &tables {
+                Some(t) if basis == Basis::Sh => t.buffer.as_entire_binding(),
+                _ => folded.as_entire_binding(),
+            },
+            shading_shape.as_entire_binding(),
         ],
     );
     let shade = compute::pipeline(
         ctx,
         "env-harmonics shade",
-        include_str!("shade.wgsl"),
+        &format!("{LOOKUP_WGSL}\n{}", include_str!("shade.wgsl")),
         defines.clone(),
         "main",
         &layouts(setup, &shade_layout),
     )?;
 
-    let harmonics = if harmonic {
-        let first_samples: Vec<[u32; 4]> = (0..table_samples.div_ceil(SAMPLES_PER_DISPATCH))
-            .map(|i| [i * SAMPLES_PER_DISPATCH, order, env_order, 0])
-            .collect();
-        let tables_slots = DispatchSlots::new(ctx, "env-harmonics table samples", &first_samples);
-        let tables_layout = compute::layout(
-            ctx,
-            "env-harmonics tables",
-            &[
-                compute::storage_buffer_entry(0, false),
-                tables_slots.entry(1),
-                compute::storage_buffer_entry(2, true),
-                compute::storage_buffer_entry(3, false),
-            ],
-        );
-        let tables_group = compute::bind_group(
-            ctx,
-            "env-harmonics tables",
-            &tables_layout,
-            &[
-                tables.as_entire_binding(),
-                tables_slots.resource(),
-                conversion.as_entire_binding(),
-                folded.as_entire_binding(),
-            ],
-        );
-        let table_pipeline = |entry: &str| {
-            compute::pipeline(
+    let harmonics = if let Some(tables) = tables {
+        let fold = if basis == Basis::Hsh {
+            let conversion = constant(
+                "env-harmonics conversion",
+                bytemuck::cast_slice::<f32, u8>(
+                    &hsh::conversion(order as usize, env_order as usize)
+                        .iter()
+                        .flatten()
+                        .map(|&x| x as f32)
+                        .collect::<Vec<_>>(),
+                ),
+                wgpu::BufferUsages::STORAGE,
+            )?;
+            let fold_shape = constant(
+                "env-harmonics fold shape",
+                bytemuck::cast_slice(&[order, env_order, 0, 0]),
+                wgpu::BufferUsages::UNIFORM,
+            )?;
+            let layout = compute::layout(
                 ctx,
-                "env-harmonics tables",
-                include_str!("tables.wgsl"),
+                "env-harmonics fold",
+                &[
+                    read_only(0),
+                    read_only(1),
+                    compute::storage_buffer_entry(2, false),
+                    compute::uniform_entry(3),
+                ],
+            );
+            let group = compute::bind_group(
+                ctx,
+                "env-harmonics fold",
+                &layout,
+                &[
+                    tables.buffer.as_entire_binding(),
+                    conversion.as_entire_binding(),
+                    folded.as_entire_binding(),
+                    fold_shape.as_entire_binding(),
+                ],
+            );
+            let pipeline = compute::pipeline(
+                ctx,
+                "env-harmonics fold",
+                include_str!("fold.wgsl"),
                 defines.clone(),
-                entry,
-                &layouts(setup, &tables_layout),
-            )
+                "fold",
+                &layouts(setup, &layout),
+            )?;
+            Some(Fold {
+                pipeline,
+                group,
+                elements: shape.tables() * table_size * table_size * coefficients,
+                bytes: folded_bytes,
+                done: false,
+            })
+        } else {
+            None
         };
         let first_phis: Vec<[u32; 4]> = (0..bands.div_ceil(SAMPLES_PER_DISPATCH))
             .map(|i| [i * SAMPLES_PER_DISPATCH, env_order, 0, 0])
@@ -378,13 +399,8 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
             )
         };
         Some(Harmonics {
-            tables: table_pipeline("main")?,
-            fold: (basis == Basis::Hsh).then(|| table_pipeline("fold")).transpose()?,
-            tables_group,
-            tables_slots,
-            table_elements: tables_count * table_size * table_size * brdf_coefficients,
-            folded_elements: tables_count * table_size * table_size * coefficients,
-            tables_built: false,
+            tables,
+            fold,
             partial: project("partial")?,
             reduce: project("reduce")?,
             projection_group,
@@ -393,8 +409,6 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
             bands,
             coefficients,
             projected: false,
-            table_bytes,
-            folded_bytes: if basis == Basis::Hsh { folded_bytes } else { 0 },
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
         })
     } else {
@@ -404,26 +418,23 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
 }
 
 impl Harmonics {
-    /// Builds the BRDF tables on the first frame and projects the environment when it is new.
+    /// Builds (and folds) the BRDF tables on the first frame and projects the environment when it is
+    /// new.
     fn prepare(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
-        if !self.tables_built {
-            profiler.pass(fc.ctx, "brdf tables", |encoder| {
-                let [x, y, _] = workgroups_for(self.table_elements, WORKGROUP, self.max_workgroups);
-                let mut pass =
-                    crate::gpu::dispatch::compute_pass(encoder, "brdf tables", &self.tables, &groups);
-                for offset in self.tables_slots.offsets() {
-                    pass.set_bind_group(2, &self.tables_group, &[offset]);
-                    pass.dispatch_workgroups(x, y, 1);
-                }
-                if let Some(fold) = &self.fold {
-                    let [x, y, _] = workgroups_for(self.folded_elements, WORKGROUP, self.max_workgroups);
-                    pass.set_pipeline(fold);
-                    pass.set_bind_group(2, &self.tables_group, &[0]);
-                    pass.dispatch_workgroups(x, y, 1);
-                }
+        self.tables.build_once(fc, profiler)?;
+        if let Some(fold) = self.fold.as_mut().filter(|f| !f.done) {
+            profiler.pass(fc.ctx, "brdf table fold", |encoder| {
+                let [x, y, _] = workgroups_for(fold.elements, WORKGROUP, self.max_workgroups);
+                compute::dispatch(
+                    encoder,
+                    "brdf table fold",
+                    &fold.pipeline,
+                    &[groups[0], groups[1], &fold.group],
+                    [x, y, 1],
+                );
             })?;
-            self.tables_built = true;
+            fold.done = true;
         }
         if !self.projected {
             profiler.pass(fc.ctx, "environment projection", |encoder| {
@@ -483,8 +494,8 @@ impl Technique for EnvHarmonics {
             ("output_bytes_per_pixel".to_string(), 32.0),
         ]);
         if let Some(h) = &self.harmonics {
-            c.insert("brdf_table_bytes".to_string(), h.table_bytes as f64);
-            c.insert("folded_table_bytes".to_string(), h.folded_bytes as f64);
+            c.insert("brdf_table_bytes".to_string(), h.tables.shape.bytes() as f64);
+            c.insert("folded_table_bytes".to_string(), h.fold.as_ref().map_or(0, |f| f.bytes) as f64);
             c.insert("environment_coefficients_per_colour".to_string(), f64::from(h.coefficients));
         }
         Ok(c)

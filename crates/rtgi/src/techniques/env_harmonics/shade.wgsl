@@ -2,7 +2,7 @@
 // environment's SH turned into the frame of the pixel's normal, converted to HSH (or kept as SH for the
 // baseline), and dotted with the BRDF tables at the local outgoing direction; no visibility, as in the
 // thesis. The HSH conversion λ = C g enters only through Σ_i λ_i T_i = Σ_j g_j (Σ_i C_ij T_i): the
-// tables are folded with C once (tables.wgsl `fold`), so HSH shading costs what SH shading does
+// tables are folded with C once (fold.wgsl), so HSH shading costs what SH shading does
 // (the thesis converted per pixel and paid 1–14 % of its frame rate for it). Everything runs band by
 // band (rotations keep bands apart), so no invocation holds more than one band's 2l + 1 colours. The turn is R⁻¹ for R = Rz(φ) Ry(θ), (θ, φ) the normal's spherical angles, with Ry written
 // as Rx(−90°) Rz(θ) Rx(90°), so per pixel only two cheap Z turns and two products with the one
@@ -21,8 +21,9 @@
 @group(2) @binding(2) var<storage, read> environment_sh: array<vec4f>;
 // Band l's (2l+1)² block of the SH matrix of Rx(90°), row-major, from l(4l² − 1)/3.
 @group(2) @binding(3) var<storage, read> rotation_x90: array<f32>;
-// The BRDF tables (tables.wgsl) in the SH of the environment: for HSH, already folded with C.
-@group(2) @binding(4) var<storage, read> tables: array<f32>;
+// The BRDF tables (brdf_tables/build.wgsl, read by its lookup.wgsl) in the SH of the environment:
+// for HSH, already folded with C (fold.wgsl).
+@group(2) @binding(4) var<storage, read> brdf_tables: array<f32>;
 // The order as a run-time value: a compile-time bound lets LLVM (lavapipe) unroll the per-band
 // loops and scalarise the coefficient arrays, which takes minutes to compile from order 8 on.
 struct Shape {
@@ -61,31 +62,6 @@ fn rotate_x90(b: ptr<function, Band>, l: u32, inverse: bool) {
     *b = out;
 }
 
-// Where a table's four texels around an outgoing direction start, and their bilinear weights.
-struct TableLookup {
-    texels: vec4u,
-    weights: vec4f,
-}
-
-fn table_lookup(uv: vec2f) -> TableLookup {
-    let last = f32(TABLE_SIZE - 1u);
-    let x = clamp(uv * f32(TABLE_SIZE) - 0.5, vec2f(0.0), vec2f(last));
-    let i0 = vec2u(floor(x));
-    let i1 = min(i0 + 1u, vec2u(TABLE_SIZE - 1u));
-    let f = x - vec2f(i0);
-    var t: TableLookup;
-    t.weights = vec4f((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
-    t.texels = vec4u(i0.y * TABLE_SIZE + i0.x, i0.y * TABLE_SIZE + i1.x, i1.y * TABLE_SIZE + i0.x, i1.y * TABLE_SIZE + i1.x);
-    return t;
-}
-
-// Coefficient k of table `table` at the looked-up outgoing direction.
-fn table_value(t: TableLookup, table: u32, k: u32) -> f32 {
-    let count = shape.order * shape.order;
-    let e = (vec4u(table * TABLE_SIZE * TABLE_SIZE) + t.texels) * count + k;
-    return dot(t.weights, vec4f(tables[e.x], tables[e.y], tables[e.z], tables[e.w]));
-}
-
 fn harmonic_environment(s: GSurface) -> vec3f {
     let n = s.normal;
     let theta = acos(clamp(n.z, -1.0, 1.0));
@@ -94,10 +70,8 @@ fn harmonic_environment(s: GSurface) -> vec3f {
     let v = s.view;
     let vz = vec2f(cos(phi) * v.x + sin(phi) * v.y, -sin(phi) * v.x + cos(phi) * v.y);
     let local_v = vec3f(cos(theta) * vz.x - sin(theta) * v.z, vz.y, sin(theta) * vz.x + cos(theta) * v.z);
-    let t = table_lookup(paraboloid_uv(local_v));
-    let level = saturate(s.material.roughness) * f32(ROUGHNESS_LEVELS - 1u);
-    let r0 = min(u32(level), ROUGHNESS_LEVELS - 2u);
-    let fr = level - f32(r0);
+    let t = brdf_table_lookup(local_v, s.material.roughness);
+    let count = shape.order * shape.order;
     var lambert = vec3f(0.0);
     var lambert_fresnel = vec3f(0.0);
     var ggx = vec3f(0.0);
@@ -112,21 +86,14 @@ fn harmonic_environment(s: GSurface) -> vec3f {
         rotate_z(&b, l, -theta);
         rotate_x90(&b, l, true);
         for (var i = 0u; i < 2u * l + 1u; i++) {
-            let k = l * l + i;
-            lambert += b[i] * table_value(t, 0u, k);
-            lambert_fresnel += b[i] * table_value(t, 1u, k);
-            ggx += b[i] * mix(table_value(t, 2u + 2u * r0, k), table_value(t, 4u + 2u * r0, k), fr);
-            ggx_fresnel += b[i] * mix(table_value(t, 3u + 2u * r0, k), table_value(t, 5u + 2u * r0, k), fr);
+            let lobes = brdf_table_lobes(t, l * l + i, count);
+            lambert += b[i] * lobes.x;
+            lambert_fresnel += b[i] * lobes.y;
+            ggx += b[i] * lobes.z;
+            ggx_fresnel += b[i] * lobes.w;
         }
     }
-    // brdf_terms, integrated: the dielectric's diffuse layer base/π (1 − s F), its specular layer
-    // s F D V with F = 0.04 + 0.96 S, and the metal's (base + (1 − base) S) D V.
-    let m = s.material;
-    let sw = m.specular;
-    let dielectric = m.base_color * (lambert * (1.0 - sw * DIELECTRIC_F0) - sw * (1.0 - DIELECTRIC_F0) * lambert_fresnel)
-        + sw * (DIELECTRIC_F0 * ggx + (1.0 - DIELECTRIC_F0) * ggx_fresnel);
-    let metal = m.base_color * (ggx - ggx_fresnel) + ggx_fresnel;
-    return max(mix(dielectric, metal, m.metallic), vec3f(0.0));
+    return max(brdf_table_combine(s.material, lambert, lambert_fresnel, ggx, ggx_fresnel), vec3f(0.0));
 }
 
 // The same integral, ∫ L f cos over the hemisphere without visibility, by sampling the BRDF.

@@ -8,15 +8,13 @@ use crate::shaders::validate;
 use crate::techniques::fixture::{Fixture, fixture_of};
 
 fn test_defines(basis: Basis) -> Defines {
-    Defines::new()
-        .u32("TABLE_SIZE", 8)
-        .u32("ROUGHNESS_LEVELS", 3)
-        .u32("TABLE_SAMPLES", 128)
-        .u32("SAMPLES_PER_DISPATCH", SAMPLES_PER_DISPATCH)
+    let shape =
+        BrdfTableShape { hsh: basis == Basis::Hsh, order: 3, size: 8, roughness_levels: 3, samples: 128 };
+    shape
+        .defines(Defines::new())
         .u32("PROJECTION_BANDS", 64)
         .u32("PHI_PER_DISPATCH", SAMPLES_PER_DISPATCH)
         .u32("REFERENCE_SAMPLES", 4)
-        .bool("HSH_BASIS", basis == Basis::Hsh)
         .bool("BASIS_SAMPLED", basis == Basis::Sampled)
         .bool("BVH_INSTANCES", false)
         .u32("TILE", 8)
@@ -26,9 +24,9 @@ fn test_defines(basis: Basis) -> Defines {
 fn shaders_validate() {
     for basis in [Basis::Hsh, Basis::Sh, Basis::Sampled] {
         let d = test_defines(basis);
-        validate("env-harmonics tables", include_str!("tables.wgsl"), &d);
+        validate("env-harmonics fold", include_str!("fold.wgsl"), &d);
         validate("env-harmonics projection", include_str!("project.wgsl"), &d);
-        validate("env-harmonics shade", include_str!("shade.wgsl"), &d);
+        validate("env-harmonics shade", &format!("{LOOKUP_WGSL}\n{}", include_str!("shade.wgsl")), &d);
     }
 }
 

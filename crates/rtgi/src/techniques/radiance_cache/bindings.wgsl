@@ -14,3 +14,40 @@
 @group(2) @binding(6) var splat_buffer: texture_storage_2d<rgba32float, read_write>;
 @group(2) @binding(7) var direct_light_texture: texture_2d<f32>;
 @group(2) @binding(8) var output: texture_storage_2d<rgba32float, write>;
+// Radiance records' incoming radiance in HSH of the record's frame (local_to_world of its normal):
+// per record, per coefficient i, λ_i (rgb), then its translational gradient along the frame's tangent
+// (rgb) and bitangent (rgb), RADIANCE_FLOATS floats per coefficient.
+@group(2) @binding(9) var<storage, read_write> radiance: array<f32>;
+struct GlossyShape {
+    // HSH order of radiance records, a run-time value (see env_harmonics/shade.wgsl).
+    order: u32,
+}
+@group(2) @binding(10) var<uniform> glossy: GlossyShape;
+// HSH BRDF tables of `glossy.order` (brdf_tables/lookup.wgsl).
+@group(2) @binding(11) var<storage, read> brdf_tables: array<f32>;
+
+// Per hemisphere cell of the record pass and HSH coefficient i (radiance_cache::cell_harmonics): ∫_cell
+// H_i dω; sin θ cos θ ∫ H_i dφ along the cell's lower θ boundary; ∫ H_i dθ along its lower φ boundary.
+@group(2) @binding(12) var<storage, read> cell_harmonics: array<f32>;
+
+const RADIANCE_FLOATS: u32 = 9u;
+
+fn radiance_coefficients() -> u32 {
+    return glossy.order * glossy.order;
+}
+
+// First float of coefficient i of record k.
+fn radiance_index(k: u32, i: u32) -> u32 {
+    return (k * radiance_coefficients() + i) * RADIANCE_FLOATS;
+}
+
+// Coefficient i of radiance record r (index k) extrapolated to p by its translational gradients.
+fn record_radiance(k: u32, r: Record, i: u32, p: vec3f) -> vec3f {
+    let e = radiance_index(k, i);
+    let dp = p - r.position_radius.xyz;
+    let dx = dot(dp, basis_tangent(r.normal.xyz));
+    let dy = dot(dp, basis_bitangent(r.normal.xyz));
+    return vec3f(radiance[e], radiance[e + 1u], radiance[e + 2u])
+        + dx * vec3f(radiance[e + 3u], radiance[e + 4u], radiance[e + 5u])
+        + dy * vec3f(radiance[e + 6u], radiance[e + 7u], radiance[e + 8u]);
+}

@@ -1,17 +1,20 @@
-// The irradiance records of the radiance cache, their weight (Ward et al. 1988) and extrapolation by
-// gradients (Ward & Heckbert 1992), shared by splatting, miss detection and the record pass. Mirrors
-// `Record` and `CacheState` in radiance_cache/mod.rs; the CPU twins of `record_weight` and
-// `record_irradiance` are `Record::weight` and `Record::irradiance_at` there.
+// The records of the radiance cache, their weight (Ward et al. 1988) and extrapolation by gradients
+// (Ward & Heckbert 1992), shared by splatting, miss detection and the record pass. Mirrors `Record`
+// and `CacheState` in radiance_cache/mod.rs; the CPU twins of `record_weight` and
+// `record_irradiance` are `Record::weight` and `Record::irradiance_at` there. Two kinds of records
+// (Křivánek et al. 2005; the thesis's §4.3): irradiance records serve diffuse surfaces, radiance
+// records (HSH incoming radiance, in `radiance`) serve glossy ones; each kind is placed, splatted and
+// summed only for pixels of its kind, with its own accuracy.
 //
-// Constants from the host: ACCURACY (a), CAPACITY (records), BIN_TILE (pixels per bin tile edge),
-// BIN_WORDS (CAPACITY / 32), BIN_TILES_X.
+// Constants from the host: ACCURACY (a), GLOSSY_ACCURACY, GLOSSY_ROUGHNESS, CAPACITY (records),
+// BIN_TILE (pixels per bin tile edge), BIN_WORDS (CAPACITY / 32), BIN_TILES_X.
 
 #import common/frame.wgsl
 
 struct Record {
     // Position (xyz) and harmonic mean distance R to what the hemisphere sees, clamped (w).
     position_radius: vec4f,
-    // Normal of the surface at the record (xyz).
+    // Normal of the surface at the record (xyz); 1 for a radiance record, 0 for irradiance (w).
     normal: vec4f,
     // Irradiance (rgb) of the indirect light.
     irradiance: vec4f,
@@ -43,6 +46,20 @@ struct CacheState {
 // Weights above this are clamped (the weight is infinite at the record itself).
 const MAX_WEIGHT: f32 = 1e4;
 
+// Surfaces whose indirect light comes from radiance records: a specular lobe no rougher than
+// GLOSSY_ROUGHNESS (0 = none).
+fn is_glossy(m: SurfaceMaterial) -> bool {
+    return m.roughness < GLOSSY_ROUGHNESS && (m.metallic > 0.0 || m.specular > 0.0);
+}
+
+fn kind_accuracy(glossy: bool) -> f32 {
+    return select(ACCURACY, GLOSSY_ACCURACY, glossy);
+}
+
+fn record_is_radiance(r: Record) -> bool {
+    return r.normal.w > 0.5;
+}
+
 // Ward's error term ||p − p_k|| / R_k + sqrt(1 − n · n_k); the record contributes where it is ≤ a
 // (weight ≥ 1/a).
 fn record_error(r: Record, p: vec3f, n: vec3f) -> f32 {
@@ -67,11 +84,11 @@ fn record_irradiance(r: Record, p: vec3f, n: vec3f) -> vec3f {
 }
 
 // The framebuffer rectangle (x0, y0, x1, y1, pixels) holding the projection of the sphere of radius
-// a · R_k around the record, outside which the record's weight is below 1/a: the projected corners of
+// a · R_k around the record (a of its kind), outside which the record's weight is below 1/a: the projected corners of
 // the sphere's bounding box, widened by a pixel for the sub-pixel jitter of primary rays; the whole
 // frame when the box reaches behind the camera.
 fn record_screen_rect(r: Record) -> vec4f {
-    let radius = ACCURACY * r.position_radius.w;
+    let radius = kind_accuracy(record_is_radiance(r)) * r.position_radius.w;
     var lo = vec2f(3.0e38);
     var hi = vec2f(-3.0e38);
     for (var i = 0u; i < 8u; i++) {

@@ -15,6 +15,14 @@
 //! bounded by a budget (`records_per_frame`, progressive mode) and the rounds that find no miss cost a
 //! pass over the pixels.
 //!
+//! Glossy surfaces (a specular lobe smoother than `glossy_roughness`) get radiance records instead
+//! (Křivánek et al. 2005; the thesis's §4.3): the record's cells projected onto HSH of its frame with
+//! per-coefficient translational gradients, splatted (with `glossy_accuracy`) as their dot product with
+//! the HSH BRDF tables (`brdf_tables`) at the pixel's outgoing direction, which carries the whole BRDF.
+//! A record's hemisphere is read in the pixel's frame without rotation: exact between equal normals (a
+//! wall), an error of the order of the normals' angle on curved surfaces, which the thesis removes by
+//! rotating the coefficients.
+//!
 //! The cache is cleared when lights, the environment or geometry change (temporal reuse is
 //! `radiance-cache-temporal`'s job, not built yet).
 
@@ -30,7 +38,8 @@ use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
 use crate::techniques::RenderError;
 
-use super::compute::{self, storage_buffer_entry, storage_texture_entry, texture_entry};
+use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL};
+use super::compute::{self, storage_buffer_entry, storage_texture_entry, texture_entry, uniform_entry};
 use super::direct::{DirectLighting, DirectOutput, with_direct_params};
 use super::{FrameContext, FrameNeeds, Measured, SceneChange, Technique, TechniqueInfo, TechniqueSetup};
 
@@ -51,7 +60,7 @@ const LINEAR_WORKGROUP: u32 = 64;
 /// Hemisphere cells are held in workgroup memory (16 + 4 bytes each) within the 16 KiB every adapter has.
 const MAX_HEMISPHERE_SAMPLES: i64 = 768;
 
-const PARAMS: [ParamSpec; 17] = with_direct_params![
+const PARAMS: [ParamSpec; 20] = with_direct_params![
     ParamSpec {
         name: "accuracy",
         kind: ParamKind::Float { min: 0.01, max: 1.0 },
@@ -99,6 +108,24 @@ const PARAMS: [ParamSpec; 17] = with_direct_params![
         kind: ParamKind::Bool,
         default: "true",
         doc: "extrapolate records by their rotational and translational gradients (Ward & Heckbert 1992)",
+    },
+    ParamSpec {
+        name: "glossy_roughness",
+        kind: ParamKind::Float { min: 0.0, max: 1.0 },
+        default: "0.6",
+        doc: "surfaces with a specular lobe (metallic or specular above 0) and a roughness below this get radiance records (HSH incoming radiance, the whole BRDF through HSH tables); others irradiance records (0 = irradiance only)",
+    },
+    ParamSpec {
+        name: "glossy_accuracy",
+        kind: ParamKind::Float { min: 0.01, max: 1.0 },
+        default: "0.25",
+        doc: "a of the radiance records (the thesis's glossy Cornell box: 0.25)",
+    },
+    ParamSpec {
+        name: "hsh_order",
+        kind: ParamKind::Int { min: 1, max: crate::hsh::MAX_GPU_ORDER as i64 },
+        default: "5",
+        doc: "bands of the radiance records' HSH (order² coefficients per colour, each with a 2-D translational gradient: 9·order² floats per record)",
     },
     ParamSpec {
         name: "seed",
@@ -198,6 +225,59 @@ pub fn hemisphere_cells(samples: u32) -> (u32, u32) {
     (m, n)
 }
 
+/// Per cell (j, c) of the `cells` stratification (index j·N + c, as record.wgsl) and HSH coefficient i
+/// of `order`, three numbers (index 3(cell·order² + i)): ∫_cell H_i dω; sin θ_j− cos θ_j− ∫ H_i(θ_j−, φ) dφ
+/// over the cell's φ range (its lower θ boundary); ∫ H_i(θ, φ_c−) dθ over its θ range (its lower φ
+/// boundary). The record pass weighs cell radiance with them (Gauss–Legendre, 8 nodes per dimension:
+/// the cells are narrow and the bases smooth).
+pub fn cell_harmonics(cells: (u32, u32), order: usize) -> Vec<f32> {
+    use std::f64::consts::PI;
+    let (m, n) = (f64::from(cells.0), f64::from(cells.1));
+    let count = crate::hsh::count(order);
+    let (nodes, weights) = crate::sh::gauss_legendre(8);
+    // The rule on [a, b].
+    let rule = |a: f64, b: f64| {
+        nodes.iter().zip(&weights).map(move |(x, w)| (0.5 * (a + b) + 0.5 * (b - a) * x, 0.5 * (b - a) * w))
+    };
+    let direction = |theta: f64, phi: f64| {
+        glam::DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    };
+    let mut out = vec![0.0f32; cells.0 as usize * cells.1 as usize * count * 3];
+    for j in 0..cells.0 {
+        let theta_minus = (f64::from(j) / m).sqrt().asin();
+        let theta_plus = ((f64::from(j) + 1.0) / m).min(1.0).sqrt().asin();
+        for c in 0..cells.1 {
+            let (phi_minus, phi_plus) = (2.0 * PI * f64::from(c) / n, 2.0 * PI * (f64::from(c) + 1.0) / n);
+            let mut sums = vec![[0.0f64; 3]; count];
+            for (theta, wt) in rule(theta_minus, theta_plus) {
+                for (phi, wp) in rule(phi_minus, phi_plus) {
+                    for (s, h) in sums.iter_mut().zip(crate::hsh::hsh(order, direction(theta, phi))) {
+                        s[0] += wt * wp * theta.sin() * h;
+                    }
+                }
+                for (s, h) in sums.iter_mut().zip(crate::hsh::hsh(order, direction(theta, phi_minus))) {
+                    s[2] += wt * h;
+                }
+            }
+            if j > 0 {
+                let arc = theta_minus.sin() * theta_minus.cos();
+                for (phi, wp) in rule(phi_minus, phi_plus) {
+                    for (s, h) in sums.iter_mut().zip(crate::hsh::hsh(order, direction(theta_minus, phi))) {
+                        s[1] += arc * wp * h;
+                    }
+                }
+            }
+            let cell = (j * cells.1 + c) as usize;
+            for (i, s) in sums.iter().enumerate() {
+                for (v, x) in s.iter().enumerate() {
+                    out[3 * (cell * count + i) + v] = *x as f32;
+                }
+            }
+        }
+    }
+    out
+}
+
 pub(crate) struct RadianceCache {
     direct: DirectLighting,
     _direct_texture: wgpu::Texture,
@@ -205,6 +285,10 @@ pub(crate) struct RadianceCache {
     #[cfg_attr(not(test), allow(dead_code))]
     splat_texture: wgpu::Texture,
     records: wgpu::Buffer,
+    /// Radiance records' HSH coefficients and gradients (4 bytes when no surface is glossy).
+    radiance: wgpu::Buffer,
+    /// The HSH BRDF tables of radiance records (absent when no surface can be glossy).
+    brdf_tables: Option<BrdfTables>,
     state: wgpu::Buffer,
     rects: wgpu::Buffer,
     bins: wgpu::Buffer,
@@ -235,8 +319,11 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
 
 /// The defines every pass of the cache shares.
 fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x: u32) -> Defines {
-    Defines::new()
+    brdf_table_shape(p)
+        .defines(Defines::new())
         .f32("ACCURACY", p.float("accuracy") as f32)
+        .f32("GLOSSY_ACCURACY", p.float("glossy_accuracy") as f32)
+        .f32("GLOSSY_ROUGHNESS", p.float("glossy_roughness") as f32)
         .u32("CAPACITY", capacity)
         .u32("BIN_TILE", BIN_TILE)
         .u32("BIN_WORDS", capacity / 32)
@@ -252,9 +339,27 @@ fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x:
         .u32("SEED", p.int("seed") as u32)
 }
 
-/// The composed source of a cache pass: the records, the cache's bindings, then the pass.
+/// The composed source of a cache pass: the records, the cache's bindings, the BRDF table lookup, then
+/// the pass.
 fn cache_source(pass: &str) -> String {
-    format!("{CACHE_WGSL}\n{BINDINGS_WGSL}\n{pass}")
+    format!("{CACHE_WGSL}\n{BINDINGS_WGSL}\n{LOOKUP_WGSL}\n{pass}")
+}
+
+/// The HSH BRDF tables of radiance records, at env-harmonics' defaults (its measurements show 32² texels,
+/// 512 samples and 9 roughnesses are below the orders' own error).
+fn brdf_table_shape(p: &ParamValues) -> BrdfTableShape {
+    BrdfTableShape {
+        hsh: true,
+        order: p.int("hsh_order") as u32,
+        size: 32,
+        roughness_levels: 9,
+        samples: 512,
+    }
+}
+
+/// Whether any surface can get radiance records.
+fn glossy_enabled(p: &ParamValues) -> bool {
+    p.float("glossy_roughness") > 0.0
 }
 
 impl RadianceCache {
@@ -269,6 +374,14 @@ impl RadianceCache {
         let bin_bytes = u64::from(bin_tiles[0] * bin_tiles[1]) * words * 4;
         let record_bytes = u64::from(capacity) * size_of::<Record>() as u64;
         ctx.check_storage_size("the radiance cache's records", record_bytes)?;
+        let glossy = glossy_enabled(p);
+        let shape = brdf_table_shape(p);
+        let radiance_bytes =
+            if glossy { u64::from(capacity) * u64::from(shape.coefficients()) * 9 * 4 } else { 4 };
+        ctx.check_storage_size(
+            "the radiance cache's HSH radiance records (lower records or hsh_order)",
+            radiance_bytes,
+        )?;
         ctx.check_storage_size("the radiance cache's per-tile record sets", bin_bytes)?;
         let per_frame = (p.int("records_per_frame") as u32).min(capacity);
         let candidate_count =
@@ -277,6 +390,23 @@ impl RadianceCache {
         let device = &ctx.device;
         let storage = |label: &str, size: u64| compute::storage_buffer(ctx, label, size);
         let records = storage("radiance cache records", record_bytes);
+        let radiance = storage("radiance cache hsh radiance", radiance_bytes);
+        let brdf_tables = glossy.then(|| BrdfTables::new(setup, shape, "radiance-cache")).transpose()?;
+        let no_tables = storage("radiance cache no brdf tables", 4);
+        let cell_harmonics = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("radiance cache cell harmonics"),
+            contents: bytemuck::cast_slice(&if glossy {
+                cell_harmonics(cells, shape.order as usize)
+            } else {
+                vec![0.0f32]
+            }),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let glossy_shape = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("radiance cache glossy shape"),
+            contents: bytemuck::cast_slice(&[shape.order, 0, 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
         let state = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("radiance cache state"),
             contents: bytemuck::bytes_of(&CacheState::zeroed()),
@@ -312,6 +442,10 @@ impl RadianceCache {
                 storage_texture_entry(6, OUTPUT_FORMAT, rw),
                 texture_entry(7, wgpu::TextureSampleType::Float { filterable: false }),
                 storage_texture_entry(8, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
+                storage_buffer_entry(9, false),
+                uniform_entry(10),
+                storage_buffer_entry(11, true),
+                storage_buffer_entry(12, true),
             ],
         );
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
@@ -331,6 +465,10 @@ impl RadianceCache {
                 wgpu::BindingResource::TextureView(&splat_view),
                 wgpu::BindingResource::TextureView(&direct_view),
                 wgpu::BindingResource::TextureView(&output_view),
+                radiance.as_entire_binding(),
+                glossy_shape.as_entire_binding(),
+                brdf_tables.as_ref().map_or(&no_tables, |t| &t.buffer).as_entire_binding(),
+                cell_harmonics.as_entire_binding(),
             ],
         );
         let dispatch_layout =
@@ -377,6 +515,8 @@ impl RadianceCache {
             _direct_texture: direct_texture,
             splat_texture,
             records,
+            radiance,
+            brdf_tables,
             state,
             rects,
             bins,
@@ -494,6 +634,9 @@ impl Technique for RadianceCache {
             std::mem::offset_of!(CacheState, splat_begin)..std::mem::offset_of!(CacheState, missing_tiles);
         let written = if std::mem::take(&mut self.clear_pending) { 0..bytes.len() } else { per_frame };
         fc.ctx.queue.write_buffer(&self.state, written.start as u64, &bytes[written]);
+        if let Some(tables) = self.brdf_tables.as_mut() {
+            tables.build_once(fc, profiler)?;
+        }
         self.direct.render(fc, profiler)?;
         self.splat(fc, profiler)?;
         for _ in 0..self.iterations {
@@ -517,6 +660,11 @@ impl Technique for RadianceCache {
             ("unserved_tiles_last_round".to_string(), f64::from(s.unserved_tiles)),
             ("hemisphere_rays_per_record".to_string(), f64::from(self.cells.0 * self.cells.1)),
             ("record_bytes".to_string(), self.records.size() as f64),
+            ("radiance_record_bytes".to_string(), self.radiance.size() as f64),
+            (
+                "brdf_table_bytes".to_string(),
+                self.brdf_tables.as_ref().map_or(0.0, |t| t.shape.bytes() as f64),
+            ),
             ("record_set_bytes".to_string(), (self.bins.size() + self.rects.size()) as f64),
             ("candidate_bytes".to_string(), (self.candidates.size() + self.new_pixels.size()) as f64),
             ("splat_bytes_per_pixel".to_string(), 16.0),
@@ -542,6 +690,6 @@ impl Technique for RadianceCache {
     }
 
     fn warnings(&self) -> Vec<String> {
-        vec!["radiance-cache: irradiance records carry one diffuse bounce; glossy lobes get no indirect light (radiance records with HSH are not built yet)".into()]
+        vec!["radiance-cache: records carry one bounce; specular lobes rougher than glossy_roughness, and dielectric specular layers of diffuse-classed surfaces, get no indirect light".into()]
     }
 }

@@ -23,15 +23,17 @@ fn candidate_tile_count() -> u32 {
     return candidate_tiles_x() * ((frame.size.y + candidate_tile() - 1u) / candidate_tile());
 }
 
-// Per pixel: a visible surface whose summed weight is below a is a miss; its key (20 bits of weight,
+// Per pixel: a visible surface whose summed weight is below a (of its kind) is a miss; its key (20 bits of weight,
 // then its hashed index in the tile) competes for the tile, stored complemented so that 0 means none.
 @compute @workgroup_size(TILE, TILE, 1)
 fn detect_misses(@builtin(global_invocation_id) id: vec3u) {
     if any(id.xy >= frame.size) {
         return;
     }
+    let s = load_gsurface(id.xy);
+    let accuracy = kind_accuracy(is_glossy(s.material));
     let weight = textureLoad(splat_buffer, id.xy).a;
-    if weight >= ACCURACY || textureLoad(gb_distance, vec2i(id.xy), 0).r <= 0.0 {
+    if weight >= accuracy || !s.valid {
         return;
     }
     let size = candidate_tile();
@@ -39,7 +41,7 @@ fn detect_misses(@builtin(global_invocation_id) id: vec3u) {
     let t = tile.x + tile.y * candidate_tiles_x();
     let local = (id.x % size) + (id.y % size) * size;
     let scramble = hash3(t, frame.frame_counter, SEED) & 0xfffu;
-    let level = u32(clamp(weight / ACCURACY, 0.0, 1.0) * 1048575.0);
+    let level = u32(clamp(weight / accuracy, 0.0, 1.0) * 1048575.0);
     atomicMax(&candidates[t], ~((level << 12u) | (local ^ scramble)));
 }
 

@@ -5,7 +5,10 @@
 // plane and its border stretching are not needed). A hit returns the direct light its surface reflects
 // towards the record (shadow rays, one area-light and one environment sample): one bounce of indirect
 // light, as in the thesis; emitters seen directly and misses add nothing, the `direct` pass has them.
-// Thread 0 then sums irradiance, the harmonic mean distance and the two gradients.
+// Thread 0 then sums irradiance, the harmonic mean distance and the two gradients. A record placed on a
+// glossy surface is a radiance record: the threads also project the cells onto the HSH of the
+// record's frame, each thread its coefficients, with per-coefficient translational gradients by
+// Ward & Heckbert's boundary terms with the basis function in place of cos θ (see project_radiance).
 
 #import common/direct_light.wgsl
 
@@ -20,6 +23,63 @@ fn cell_index(j: u32, k: u32) -> u32 {
     return j * SAMPLES_PHI + k;
 }
 
+// The direction (record frame) of cell `cell` of record k, jittered.
+fn cell_direction(k: u32, cell: u32) -> vec3f {
+    var rng = rng_new(vec2u(k, cell), 0u, hash2(SEED, 0x72637264u));
+    let u = rng_next2(&rng);
+    let sin2 = (f32(cell / SAMPLES_PHI) + u.x) / f32(SAMPLES_THETA);
+    let phi = 2.0 * PI * (f32(cell % SAMPLES_PHI) + u.y) / f32(SAMPLES_PHI);
+    let sin_theta = sqrt(sin2);
+    return vec3f(sin_theta * cos(phi), sin_theta * sin(phi), sqrt(max(0.0, 1.0 - sin2)));
+}
+
+// HSH coefficient i of the incoming radiance of record k and its translational gradient, written to
+// `radiance`. The cells' radiance is taken as constant over each cell, as Ward & Heckbert's gradients
+// take it: λ_i = Σ L_cell ∫_cell H_i, and the boundary terms weigh the radiance steps with the basis
+// integrated along the boundary (cell_harmonics, from the host) where Ward's irradiance weighs them
+// with cos θ. With cos θ in the HSH span, Σ_i (∫ H_i cos) λ_i is the irradiance record's E exactly.
+fn project_radiance(k: u32, i: u32) {
+    var lambda = vec3f(0.0);
+    var gradient_x = vec3f(0.0);
+    var gradient_y = vec3f(0.0);
+    for (var c = 0u; c < SAMPLES_PHI; c++) {
+        let phi_centre = 2.0 * PI * (f32(c) + 0.5) / f32(SAMPLES_PHI);
+        let phi_minus = 2.0 * PI * f32(c) / f32(SAMPLES_PHI);
+        let previous_c = (c + SAMPLES_PHI - 1u) % SAMPLES_PHI;
+        for (var j = 0u; j < SAMPLES_THETA; j++) {
+            let here = cell_index(j, c);
+            let h = 3u * (here * radiance_coefficients() + i);
+            let l = cell_radiance[here];
+            lambda += l * cell_harmonics[h];
+            // Across the boundary with the previous θ cell (at θ_j−), along u at the cell's φ.
+            if j > 0u {
+                let below = cell_index(j - 1u, c);
+                let across_theta = cell_harmonics[h + 1u]
+                    * max(cell_inverse_distance[here], cell_inverse_distance[below]) * (l - cell_radiance[below]);
+                gradient_x += cos(phi_centre) * across_theta;
+                gradient_y += sin(phi_centre) * across_theta;
+            }
+            // Across the boundary with the previous φ cell (at φ_c−), along v there.
+            let side = cell_index(j, previous_c);
+            let across_phi = cell_harmonics[h + 2u]
+                * max(cell_inverse_distance[here], cell_inverse_distance[side]) * (l - cell_radiance[side]);
+            gradient_x -= sin(phi_minus) * across_phi;
+            gradient_y += cos(phi_minus) * across_phi;
+        }
+    }
+    let g = select(0.0, 1.0, GRADIENTS);
+    let e = radiance_index(k, i);
+    radiance[e] = lambda.x;
+    radiance[e + 1u] = lambda.y;
+    radiance[e + 2u] = lambda.z;
+    radiance[e + 3u] = g * gradient_x.x;
+    radiance[e + 4u] = g * gradient_x.y;
+    radiance[e + 5u] = g * gradient_x.z;
+    radiance[e + 6u] = g * gradient_y.x;
+    radiance[e + 7u] = g * gradient_y.y;
+    radiance[e + 8u] = g * gradient_y.z;
+}
+
 @compute @workgroup_size(RECORD_THREADS, 1, 1)
 fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
     let slot = group.x;
@@ -30,12 +90,9 @@ fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation
     let origin = gsurface_ray_origin(s);
     for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
         var rng = rng_new(vec2u(k, cell), 0u, hash2(SEED, 0x72637264u));
-        let u = rng_next2(&rng);
-        let sin2 = (f32(cell / SAMPLES_PHI) + u.x) / f32(SAMPLES_THETA);
-        let phi = 2.0 * PI * (f32(cell % SAMPLES_PHI) + u.y) / f32(SAMPLES_PHI);
-        let sin_theta = sqrt(sin2);
-        let local = vec3f(sin_theta * cos(phi), sin_theta * sin(phi), sqrt(max(0.0, 1.0 - sin2)));
-        let dir = local_to_world(local, s.normal);
+        // The same stream as cell_direction: skip its jitter, then the light samples follow.
+        _ = rng_next2(&rng);
+        let dir = local_to_world(cell_direction(k, cell), s.normal);
         let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
         var radiance = vec3f(0.0);
         var inverse_distance = 0.0;
@@ -50,6 +107,12 @@ fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation
         cell_inverse_distance[cell] = inverse_distance;
     }
     workgroupBarrier();
+    let glossy = is_glossy(s.material);
+    if glossy {
+        for (var i = thread; i < radiance_coefficients(); i += RECORD_THREADS) {
+            project_radiance(k, i);
+        }
+    }
     if thread != 0u {
         return;
     }
@@ -103,11 +166,12 @@ fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation
     let footprint = s.distance
         * length(primary_ray_through(vec2f(pixel) + vec2f(1.5, 0.5)) - primary_ray_through(vec2f(pixel) + 0.5));
     let harmonic = select(3.0e38, f32(CELLS) / inverse_sum, inverse_sum > 0.0);
-    let radius = clamp(harmonic, MIN_ZONE_PIXELS * footprint / ACCURACY, MAX_ZONE_PIXELS * footprint / ACCURACY);
+    let accuracy = kind_accuracy(glossy);
+    let radius = clamp(harmonic, MIN_ZONE_PIXELS * footprint / accuracy, MAX_ZONE_PIXELS * footprint / accuracy);
 
     var r: Record;
     r.position_radius = vec4f(s.position, radius);
-    r.normal = vec4f(s.normal, 0.0);
+    r.normal = vec4f(s.normal, select(0.0, 1.0, glossy));
     r.irradiance = vec4f(irradiance, 0.0);
     for (var ch = 0u; ch < 3u; ch++) {
         let g = select(0.0, 1.0, GRADIENTS);

@@ -1,6 +1,7 @@
 // Camera pixels: the direct light (the shared `direct` pass, averaged while nothing changes) plus the
 // diffuse lobe times the cache's irradiance, Σ w_k E_k(p) / Σ w_k (no indirect light where no record
-// reaches yet, in progressive mode). Glossy lobes get no indirect light from irradiance records.
+// reaches yet, in progressive mode); on glossy surfaces the radiance records' Σ w_k L_k / Σ w_k, which
+// already carries the whole BRDF.
 
 #import common/brdf.wgsl
 
@@ -12,7 +13,9 @@ fn shade(@builtin(global_invocation_id) id: vec3u) {
     var radiance = textureLoad(direct_light_texture, id.xy, 0).rgb;
     let s = load_gsurface(id.xy);
     let sum = textureLoad(splat_buffer, id.xy);
-    if s.valid && sum.a > 0.0 {
+    if s.valid && sum.a > 0.0 && is_glossy(s.material) {
+        radiance += max(sum.rgb / sum.a, vec3f(0.0));
+    } else if s.valid && sum.a > 0.0 {
         let diffuse = brdf_lobe_weights(s.material, dot(s.normal, s.view)).diffuse;
         radiance += diffuse * INV_PI * sum.rgb / sum.a;
     }

@@ -4,7 +4,13 @@
 // 32-record word: no atomics, so the sets do not depend on thread order), (3) each pixel adds, in record
 // order, w_k · E_k(p) and w_k of every record of its tile's set whose weight reaches 1/a. The sums equal
 // the classical interpolation's over all records (no record outside its rectangle reaches 1/a), in a
-// fixed order, so the image does not depend on scheduling.
+// fixed order, so the image does not depend on scheduling. Diffuse pixels sum irradiance records'
+// w_k E_k(p); glossy pixels sum radiance records' w_k L_k(p, ω_o), where L_k is the dot product of the
+// record's HSH incoming radiance (extrapolated to p) with the HSH BRDF tables at the pixel's outgoing
+// direction: the record's hemisphere is read in the pixel's frame, unrotated (exact between equal
+// normals, as on a wall; the thesis rotates it). A glossy pixel walks its records once per coefficient
+// (Σ_k w_k λ_ki(p), then times the BRDF's coefficient i), so no invocation holds more than one
+// coefficient of the pixel's BRDF.
 
 @compute @workgroup_size(64, 1, 1)
 fn splat_rects(@builtin(global_invocation_id) id: vec3u) {
@@ -37,6 +43,52 @@ fn splat_bins(@builtin(global_invocation_id) id: vec3u) {
     bins[(id.y + id.z * BIN_TILES_X) * BIN_WORDS + word] = bits;
 }
 
+// Where the records of a pixel's tile's set start, and how many words of it the range fills.
+struct TileSet {
+    first: u32,
+    words: u32,
+}
+
+// Σ_k w_k λ_ki(p) (rgb) and Σ_k w_k (a) over the radiance records of the tile set that reach the
+// glossy surface s.
+fn radiance_sum(tiles: TileSet, begin: u32, s: GSurface, i: u32) -> vec4f {
+    var sum = vec4f(0.0);
+    for (var word = 0u; word < tiles.words; word++) {
+        var bits = bins[tiles.first + word];
+        while bits != 0u {
+            let k = begin + word * 32u + firstTrailingBit(bits);
+            bits &= bits - 1u;
+            let r = records[k];
+            let e = record_error(r, s.position, s.normal);
+            if record_is_radiance(r) && e <= GLOSSY_ACCURACY {
+                let w = record_weight_of_error(e);
+                sum += vec4f(w * record_radiance(k, r, i, s.position), w);
+            }
+        }
+    }
+    return sum;
+}
+
+// Σ_k w_k L_k(p, ω_o) (rgb) and Σ_k w_k (a) of a glossy surface.
+fn glossy_splat(tiles: TileSet, begin: u32, s: GSurface) -> vec4f {
+    let count = radiance_coefficients();
+    let first = radiance_sum(tiles, begin, s, 0u);
+    if first.a <= 0.0 {
+        return vec4f(0.0);
+    }
+    let t = brdf_table_lookup(world_to_local(s.view, s.normal), s.material.roughness);
+    var radiance = vec3f(0.0);
+    for (var i = 0u; i < count; i++) {
+        var incoming = first.rgb;
+        if i > 0u {
+            incoming = radiance_sum(tiles, begin, s, i).rgb;
+        }
+        let l = brdf_table_lobes(t, i, count);
+        radiance += brdf_table_combine(s.material, incoming * l.x, incoming * l.y, incoming * l.z, incoming * l.w);
+    }
+    return vec4f(radiance, first.a);
+}
+
 @compute @workgroup_size(TILE, TILE, 1)
 fn splat(@builtin(global_invocation_id) id: vec3u) {
     if any(id.xy >= frame.size) {
@@ -53,7 +105,10 @@ fn splat(@builtin(global_invocation_id) id: vec3u) {
         sum = textureLoad(splat_buffer, id.xy);
     }
     let s = load_gsurface(id.xy);
-    if s.valid && range > 0u {
+    if s.valid && range > 0u && is_glossy(s.material) {
+        let tile = id.xy / BIN_TILE;
+        sum += glossy_splat(TileSet((tile.x + tile.y * BIN_TILES_X) * BIN_WORDS, (range + 31u) / 32u), begin, s);
+    } else if s.valid && range > 0u {
         let tile = id.xy / BIN_TILE;
         let first = (tile.x + tile.y * BIN_TILES_X) * BIN_WORDS;
         let words = (range + 31u) / 32u;
@@ -64,7 +119,7 @@ fn splat(@builtin(global_invocation_id) id: vec3u) {
                 bits &= bits - 1u;
                 let r = records[k];
                 let e = record_error(r, s.position, s.normal);
-                if e <= ACCURACY {
+                if !record_is_radiance(r) && e <= ACCURACY {
                     let w = record_weight_of_error(e);
                     sum += vec4f(w * record_irradiance(r, s.position, s.normal), w);
                 }
