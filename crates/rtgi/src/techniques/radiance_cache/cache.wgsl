@@ -6,7 +6,7 @@
 // records (HSH incoming radiance, in `radiance`) serve glossy ones; each kind is placed, splatted and
 // summed only for pixels of its kind, with its own accuracy.
 //
-// Constants from the host: ACCURACY (a), GLOSSY_ACCURACY, GLOSSY_ROUGHNESS, CAPACITY (records),
+// Constants from the host: ACCURACY (a), GLOSSY_ACCURACY, GLOSSY_ROUGHNESS, GLOSSY_MIN_ROUGHNESS, CAPACITY (records),
 // BIN_TILE (pixels per bin tile edge), BIN_WORDS (CAPACITY / 32), BIN_TILES_X.
 
 #import common/frame.wgsl
@@ -46,10 +46,10 @@ struct CacheState {
 // Weights above this are clamped (the weight is infinite at the record itself).
 const MAX_WEIGHT: f32 = 1e4;
 
-// Surfaces whose indirect light comes from radiance records: a specular lobe no rougher than
-// GLOSSY_ROUGHNESS (0 = none).
+// Surfaces whose indirect light comes from radiance records: a specular lobe with a roughness in
+// [GLOSSY_MIN_ROUGHNESS, GLOSSY_ROUGHNESS) (sharper lobes ring in HSH of the orders built here).
 fn is_glossy(m: SurfaceMaterial) -> bool {
-    return m.roughness < GLOSSY_ROUGHNESS && (m.metallic > 0.0 || m.specular > 0.0);
+    return m.roughness >= GLOSSY_MIN_ROUGHNESS && m.roughness < GLOSSY_ROUGHNESS && (m.metallic > 0.0 || m.specular > 0.0);
 }
 
 fn kind_accuracy(glossy: bool) -> f32 {

@@ -15,7 +15,8 @@
 //! bounded by a budget (`records_per_frame`, progressive mode) and the rounds that find no miss cost a
 //! pass over the pixels.
 //!
-//! Glossy surfaces (a specular lobe smoother than `glossy_roughness`) get radiance records instead
+//! Glossy surfaces (a specular lobe with a roughness in [`glossy_min_roughness`, `glossy_roughness`))
+//! get radiance records instead
 //! (Křivánek et al. 2005; the thesis's §4.3): the record's cells projected onto HSH of its frame with
 //! per-coefficient translational gradients, splatted (with `glossy_accuracy`) as their dot product with
 //! the HSH BRDF tables (`brdf_tables`) at the pixel's outgoing direction, which carries the whole BRDF.
@@ -60,7 +61,7 @@ const LINEAR_WORKGROUP: u32 = 64;
 /// Hemisphere cells are held in workgroup memory (16 + 4 bytes each) within the 16 KiB every adapter has.
 const MAX_HEMISPHERE_SAMPLES: i64 = 768;
 
-const PARAMS: [ParamSpec; 20] = with_direct_params![
+const PARAMS: [ParamSpec; 21] = with_direct_params![
     ParamSpec {
         name: "accuracy",
         kind: ParamKind::Float { min: 0.01, max: 1.0 },
@@ -113,7 +114,13 @@ const PARAMS: [ParamSpec; 20] = with_direct_params![
         name: "glossy_roughness",
         kind: ParamKind::Float { min: 0.0, max: 1.0 },
         default: "0.6",
-        doc: "surfaces with a specular lobe (metallic or specular above 0) and a roughness below this get radiance records (HSH incoming radiance, the whole BRDF through HSH tables); others irradiance records (0 = irradiance only)",
+        doc: "surfaces with a specular lobe (metallic or specular above 0) and a roughness below this get radiance records (HSH incoming radiance, the whole BRDF through HSH tables); others irradiance records (0, or not above glossy_min_roughness = irradiance only)",
+    },
+    ParamSpec {
+        name: "glossy_min_roughness",
+        kind: ParamKind::Float { min: 0.0, max: 1.0 },
+        default: "0.4",
+        doc: "sharper lobes keep irradiance records (their specular indirect light is missing): HSH of the orders built here ring on them (bumpy-glossy's normal-mapped 0.2-0.3 lobes come out speckled)",
     },
     ParamSpec {
         name: "glossy_accuracy",
@@ -324,6 +331,7 @@ fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x:
         .f32("ACCURACY", p.float("accuracy") as f32)
         .f32("GLOSSY_ACCURACY", p.float("glossy_accuracy") as f32)
         .f32("GLOSSY_ROUGHNESS", p.float("glossy_roughness") as f32)
+        .f32("GLOSSY_MIN_ROUGHNESS", p.float("glossy_min_roughness") as f32)
         .u32("CAPACITY", capacity)
         .u32("BIN_TILE", BIN_TILE)
         .u32("BIN_WORDS", capacity / 32)
@@ -359,7 +367,7 @@ fn brdf_table_shape(p: &ParamValues) -> BrdfTableShape {
 
 /// Whether any surface can get radiance records.
 fn glossy_enabled(p: &ParamValues) -> bool {
-    p.float("glossy_roughness") > 0.0
+    p.float("glossy_roughness") > p.float("glossy_min_roughness")
 }
 
 impl RadianceCache {
@@ -690,6 +698,6 @@ impl Technique for RadianceCache {
     }
 
     fn warnings(&self) -> Vec<String> {
-        vec!["radiance-cache: records carry one bounce; specular lobes rougher than glossy_roughness, and dielectric specular layers of diffuse-classed surfaces, get no indirect light".into()]
+        vec!["radiance-cache: records carry one bounce; specular lobes outside [glossy_min_roughness, glossy_roughness), and dielectric specular layers of diffuse-classed surfaces, get no indirect light".into()]
     }
 }
