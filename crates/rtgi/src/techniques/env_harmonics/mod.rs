@@ -145,10 +145,8 @@ enum Basis {
 struct Fold {
     pipeline: wgpu::ComputePipeline,
     group: wgpu::BindGroup,
-    /// Folded table entries, one invocation each.
-    elements: u32,
-    bytes: u64,
-    done: bool,
+    /// The folded tables: the BRDF tables' shape at the environment's order.
+    shape: BrdfTableShape,
 }
 
 /// The setup passes of the harmonic bases: BRDF tables and their fold (once) and the environment's
@@ -240,11 +238,8 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     };
     let tables = harmonic.then(|| BrdfTables::new(setup, shape, "env-harmonics")).transpose()?;
     // The HSH tables folded with C (what shading reads); the SH tables are read as they are.
-    let folded_bytes = if basis == Basis::Hsh {
-        4 * u64::from(shape.tables() * table_size * table_size * coefficients)
-    } else {
-        4
-    };
+    let folded_shape = BrdfTableShape { order: env_order, ..shape };
+    let folded_bytes = if basis == Basis::Hsh { folded_shape.bytes() } else { 4 };
     let folded = BufferBuilder::new("env-harmonics folded brdf tables", folded_bytes)
         .storage()
         .build(ctx)
@@ -357,13 +352,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
                 "fold",
                 &layouts(setup, &layout),
             )?;
-            Some(Fold {
-                pipeline,
-                group,
-                elements: shape.tables() * table_size * table_size * coefficients,
-                bytes: folded_bytes,
-                done: false,
-            })
+            Some(Fold { pipeline, group, shape: folded_shape })
         } else {
             None
         };
@@ -422,10 +411,11 @@ impl Harmonics {
     /// new.
     fn prepare(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
-        self.tables.build_once(fc, profiler)?;
-        if let Some(fold) = self.fold.as_mut().filter(|f| !f.done) {
+        // The fold reads the tables: once, right after they are built.
+        let built = self.tables.build_once(fc, profiler)?;
+        if let Some(fold) = self.fold.as_ref().filter(|_| built) {
             profiler.pass(fc.ctx, "brdf table fold", |encoder| {
-                let [x, y, _] = workgroups_for(fold.elements, WORKGROUP, self.max_workgroups);
+                let [x, y, _] = workgroups_for(fold.shape.elements(), WORKGROUP, self.max_workgroups);
                 compute::dispatch(
                     encoder,
                     "brdf table fold",
@@ -434,7 +424,6 @@ impl Harmonics {
                     [x, y, 1],
                 );
             })?;
-            fold.done = true;
         }
         if !self.projected {
             profiler.pass(fc.ctx, "environment projection", |encoder| {
@@ -495,7 +484,7 @@ impl Technique for EnvHarmonics {
         ]);
         if let Some(h) = &self.harmonics {
             c.insert("brdf_table_bytes".to_string(), h.tables.shape.bytes() as f64);
-            c.insert("folded_table_bytes".to_string(), h.fold.as_ref().map_or(0, |f| f.bytes) as f64);
+            c.insert("folded_table_bytes".to_string(), h.fold.as_ref().map_or(0, |f| f.shape.bytes()) as f64);
             c.insert("environment_coefficients_per_colour".to_string(), f64::from(h.coefficients));
         }
         Ok(c)

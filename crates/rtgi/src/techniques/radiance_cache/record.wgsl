@@ -23,10 +23,9 @@ fn cell_index(j: u32, k: u32) -> u32 {
     return j * SAMPLES_PHI + k;
 }
 
-// The direction (record frame) of cell `cell` of record k, jittered.
-fn cell_direction(k: u32, cell: u32) -> vec3f {
-    var rng = rng_new(vec2u(k, cell), 0u, hash2(SEED, 0x72637264u));
-    let u = rng_next2(&rng);
+// The direction (record frame) of a ray in cell `cell`, jittered by the next two numbers of `rng`.
+fn cell_direction(cell: u32, rng: ptr<function, Rng>) -> vec3f {
+    let u = rng_next2(rng);
     let sin2 = (f32(cell / SAMPLES_PHI) + u.x) / f32(SAMPLES_THETA);
     let phi = 2.0 * PI * (f32(cell % SAMPLES_PHI) + u.y) / f32(SAMPLES_PHI);
     let sin_theta = sqrt(sin2);
@@ -90,9 +89,7 @@ fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation
     let origin = gsurface_ray_origin(s);
     for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
         var rng = rng_new(vec2u(k, cell), 0u, hash2(SEED, 0x72637264u));
-        // The same stream as cell_direction: skip its jitter, then the light samples follow.
-        _ = rng_next2(&rng);
-        let dir = local_to_world(cell_direction(k, cell), s.normal);
+        let dir = local_to_world(cell_direction(cell, &rng), s.normal);
         let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
         var radiance = vec3f(0.0);
         var inverse_distance = 0.0;

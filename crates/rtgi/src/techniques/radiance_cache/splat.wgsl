@@ -49,6 +49,31 @@ struct TileSet {
     words: u32,
 }
 
+fn tile_set(pixel: vec2u, range: u32) -> TileSet {
+    let tile = pixel / BIN_TILE;
+    return TileSet((tile.x + tile.y * BIN_TILES_X) * BIN_WORDS, (range + 31u) / 32u);
+}
+
+// Σ_k w_k E_k(p) (rgb) and Σ_k w_k (a) over the irradiance records of the tile set that reach the
+// diffuse surface s.
+fn irradiance_sum(tiles: TileSet, begin: u32, s: GSurface) -> vec4f {
+    var sum = vec4f(0.0);
+    for (var word = 0u; word < tiles.words; word++) {
+        var bits = bins[tiles.first + word];
+        while bits != 0u {
+            let k = begin + word * 32u + firstTrailingBit(bits);
+            bits &= bits - 1u;
+            let r = records[k];
+            let e = record_error(r, s.position, s.normal);
+            if !record_is_radiance(r) && e <= ACCURACY {
+                let w = record_weight_of_error(e);
+                sum += vec4f(w * record_irradiance(r, s.position, s.normal), w);
+            }
+        }
+    }
+    return sum;
+}
+
 // Σ_k w_k λ_ki(p) (rgb) and Σ_k w_k (a) over the radiance records of the tile set that reach the
 // glossy surface s.
 fn radiance_sum(tiles: TileSet, begin: u32, s: GSurface, i: u32) -> vec4f {
@@ -77,16 +102,23 @@ fn glossy_splat(tiles: TileSet, begin: u32, s: GSurface) -> vec4f {
         return vec4f(0.0);
     }
     let t = brdf_table_lookup(world_to_local(s.view, s.normal), s.material.roughness);
-    var radiance = vec3f(0.0);
+    // The four lobes' integrals against the records' light, combined with the material once.
+    var lambert = vec3f(0.0);
+    var lambert_fresnel = vec3f(0.0);
+    var ggx = vec3f(0.0);
+    var ggx_fresnel = vec3f(0.0);
     for (var i = 0u; i < count; i++) {
         var incoming = first.rgb;
         if i > 0u {
             incoming = radiance_sum(tiles, begin, s, i).rgb;
         }
         let l = brdf_table_lobes(t, i, count);
-        radiance += brdf_table_combine(s.material, incoming * l.x, incoming * l.y, incoming * l.z, incoming * l.w);
+        lambert += incoming * l.x;
+        lambert_fresnel += incoming * l.y;
+        ggx += incoming * l.z;
+        ggx_fresnel += incoming * l.w;
     }
-    return vec4f(radiance, first.a);
+    return vec4f(brdf_table_combine(s.material, lambert, lambert_fresnel, ggx, ggx_fresnel), first.a);
 }
 
 @compute @workgroup_size(TILE, TILE, 1)
@@ -105,25 +137,11 @@ fn splat(@builtin(global_invocation_id) id: vec3u) {
         sum = textureLoad(splat_buffer, id.xy);
     }
     let s = load_gsurface(id.xy);
-    if s.valid && range > 0u && is_glossy(s.material) {
-        let tile = id.xy / BIN_TILE;
-        sum += glossy_splat(TileSet((tile.x + tile.y * BIN_TILES_X) * BIN_WORDS, (range + 31u) / 32u), begin, s);
-    } else if s.valid && range > 0u {
-        let tile = id.xy / BIN_TILE;
-        let first = (tile.x + tile.y * BIN_TILES_X) * BIN_WORDS;
-        let words = (range + 31u) / 32u;
-        for (var word = 0u; word < words; word++) {
-            var bits = bins[first + word];
-            while bits != 0u {
-                let k = begin + word * 32u + firstTrailingBit(bits);
-                bits &= bits - 1u;
-                let r = records[k];
-                let e = record_error(r, s.position, s.normal);
-                if !record_is_radiance(r) && e <= ACCURACY {
-                    let w = record_weight_of_error(e);
-                    sum += vec4f(w * record_irradiance(r, s.position, s.normal), w);
-                }
-            }
+    if s.valid && range > 0u {
+        if is_glossy(s.material) {
+            sum += glossy_splat(tile_set(id.xy, range), begin, s);
+        } else {
+            sum += irradiance_sum(tile_set(id.xy, range), begin, s);
         }
     }
     textureStore(splat_buffer, id.xy, sum);
