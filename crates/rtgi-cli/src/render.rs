@@ -188,6 +188,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         if let Some(camera) = camera {
             renderer.set_camera(camera);
         }
+        // Warm-up frames and stills hold their pose; a sequence advances by 1 / fps (techniques that
+        // predict the next frame read the step).
+        renderer.set_time_step(0.0)?;
         if args.warmup > 0 {
             renderer.set_time(args.warmup_time.unwrap_or(args.time))?;
             for _ in 0..args.warmup {
@@ -195,6 +198,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             }
         }
         renderer.set_time(args.time)?;
+        if sequence.is_some() && !args.hold {
+            renderer.set_time_step(1.0 / args.fps)?;
+        }
         for frame in 0..args.frames {
             if let Some(pattern) = &sequence {
                 let advance = if args.hold { 0.0 } else { frame as f32 / args.fps };

@@ -36,7 +36,8 @@ use crate::image::HdrImage;
 use crate::params::ParamValues;
 use crate::scene::{Camera, Environment, Scene};
 use crate::techniques::{
-    self, FrameContext, Measured, RenderError, SceneChange, Technique, TechniqueInfo, TechniqueSetup,
+    self, FrameContext, Measured, NextPose, RenderError, SceneChange, Technique, TechniqueInfo,
+    TechniqueSetup,
 };
 
 /// What to create a [`Renderer`] with.
@@ -270,6 +271,8 @@ pub struct Renderer {
     profiler: Profiler,
     time: f32,
     previous_time: Option<f32>,
+    /// Scene seconds between frames, when the caller knows them ([`Self::set_time_step`]).
+    time_step: Option<f32>,
     camera: Camera,
     camera_override: bool,
     jitter: Jitter,
@@ -326,6 +329,7 @@ impl Renderer {
             profiler: Profiler::new(ctx, settings.timing),
             time: 0.0,
             previous_time: None,
+            time_step: None,
             camera,
             camera_override: false,
             jitter: Jitter::None,
@@ -555,6 +559,34 @@ impl Renderer {
         Ok(())
     }
 
+    /// The scene time between this frame and the next (a sequence's 1 / fps; 0 for a held pose), for
+    /// techniques that predict the next frame. Unset, the last step between frames stands for it.
+    pub fn set_time_step(&mut self, seconds: f32) -> Result<(), RenderError> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(RenderError::InvalidSettings(format!(
+                "time step {seconds} is not a finite, non-negative number of seconds"
+            )));
+        }
+        self.time_step = Some(seconds);
+        Ok(())
+    }
+
+    /// The animated scene a time step ahead, when the technique predicts it and anything moves.
+    fn next_pose(&self, view: &FrameView) -> Option<NextPose> {
+        let step = self.time_step.unwrap_or(view.delta_time);
+        if !(self.technique.predicts_next_frame() && self.source.is_animated() && step > 0.0) {
+            return None;
+        }
+        let pose = self.source.pose_at(self.time + step);
+        let mesh_motion = pose
+            .mesh_transforms
+            .iter()
+            .zip(&self.posed.mesh_transforms)
+            .map(|(next, now)| if next == now { Mat4::IDENTITY } else { *next * now.inverse() })
+            .collect();
+        Some(NextPose { time_step: step, mesh_motion, lights: pose.lights })
+    }
+
     /// Validates and applies new technique parameters (all of them: unnamed ones take their defaults).
     /// Parameters that only feed uniforms (`seed`, `shadow_filter`, `shadow_bias`,
     /// `shadow_normal_offset`) rebuild nothing; others create the technique anew.
@@ -715,7 +747,14 @@ impl Renderer {
             if self.info.needs.gbuffer {
                 self.frame.render_inputs(&ctx, &self.gpu_scene, &mut self.profiler)?;
             }
-            let fc = FrameContext { ctx: &ctx, gpu_scene: &self.gpu_scene, frame: &self.frame, view };
+            let next = self.next_pose(&view);
+            let fc = FrameContext {
+                ctx: &ctx,
+                gpu_scene: &self.gpu_scene,
+                frame: &self.frame,
+                view,
+                next: next.as_ref(),
+            };
             self.technique.render_frame(&fc, &mut self.profiler)?;
             self.profiler.end_frame(&ctx)?;
             Ok(())

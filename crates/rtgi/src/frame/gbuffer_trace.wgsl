@@ -3,6 +3,7 @@
 // Compute GPUs without much raster hardware fill the seven targets faster this way.
 
 #import common/gbuffer.wgsl
+#import common/mesh_of_triangle.wgsl
 
 // Per mesh: current world position -> the previous frame's (object motion; identity when static).
 @group(1) @binding(1) var<storage, read> mesh_motion: array<mat4x4f>;
@@ -15,20 +16,6 @@
 @group(1) @binding(7) var out_distance: texture_storage_2d<r32float, write>;
 @group(1) @binding(8) var out_motion: texture_storage_2d<rg32float, write>;
 @group(1) @binding(9) var out_instance: texture_storage_2d<r32uint, write>;
-
-fn mesh_of_triangle(triangle: u32) -> u32 {
-    var lo = 0u;
-    var hi = arrayLength(&mesh_starts);
-    while hi - lo > 1u {
-        let mid = (lo + hi) / 2u;
-        if mesh_starts[mid].x <= triangle {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    return mesh_starts[lo].y;
-}
 
 // The mip level the raster pass's screen-space derivatives would pick at a primary hit: the ray
 // differentials of one pixel's step in x and in y (Igehy 1999) carried to the triangle's plane, turned

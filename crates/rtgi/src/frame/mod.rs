@@ -705,7 +705,7 @@ fn raster_primary_pass(
 
 /// (first triangle, mesh) of every non-empty mesh, ordered by first triangle (the ray-cast pass's
 /// binary search from a hit triangle to its mesh).
-fn mesh_starts(mesh_ranges: &[std::ops::Range<u32>]) -> Vec<[u32; 2]> {
+pub(crate) fn mesh_starts(mesh_ranges: &[std::ops::Range<u32>]) -> Vec<[u32; 2]> {
     let mut starts: Vec<[u32; 2]> = mesh_ranges
         .iter()
         .enumerate()

@@ -25,10 +25,12 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/frame.wgsl", include_str!("common/frame.wgsl")),
     ("common/light_sampling.wgsl", include_str!("common/light_sampling.wgsl")),
     ("common/direct_light.wgsl", include_str!("common/direct_light.wgsl")),
+    ("common/direct_light_prediction.wgsl", include_str!("common/direct_light_prediction.wgsl")),
     ("common/sh.wgsl", include_str!("common/sh.wgsl")),
     ("common/hsh.wgsl", include_str!("common/hsh.wgsl")),
     ("common/raster.wgsl", include_str!("common/raster.wgsl")),
     ("common/gbuffer.wgsl", include_str!("common/gbuffer.wgsl")),
+    ("common/mesh_of_triangle.wgsl", include_str!("common/mesh_of_triangle.wgsl")),
     ("common/indirect.wgsl", include_str!("common/indirect.wgsl")),
 ];
 

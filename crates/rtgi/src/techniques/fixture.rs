@@ -69,7 +69,13 @@ impl Fixture {
             view.frame_counter = k;
             view.sample_index = k;
             self.frame.set_view(&self.ctx, &view, 0);
-            let fc = FrameContext { ctx: &self.ctx, gpu_scene: &self.gpu_scene, frame: &self.frame, view };
+            let fc = FrameContext {
+                ctx: &self.ctx,
+                gpu_scene: &self.gpu_scene,
+                frame: &self.frame,
+                view,
+                next: None,
+            };
             profiler.begin_frame(&self.ctx);
             technique.render_frame(&fc, &mut profiler).expect("frame");
             profiler.end_frame(&self.ctx).expect("frame end");

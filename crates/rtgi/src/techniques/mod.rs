@@ -60,12 +60,28 @@ pub struct FrameContext<'a> {
     /// Camera, previous camera, counters, time and whether history is valid (also in the frame
     /// uniforms for shaders).
     pub view: FrameView,
+    /// The scene one time step ahead, for techniques that predict the next frame
+    /// ([`Technique::predicts_next_frame`]); `None` when nothing is animated or the step is unknown.
+    pub next: Option<&'a NextPose>,
+}
+
+/// The animated scene one time step after the frame being rendered: what a technique that predicts
+/// change (`radiance-cache-temporal`, as Gautron et al.'s predefined animations) needs of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NextPose {
+    /// Scene seconds from this frame to the next.
+    pub time_step: f32,
+    /// Per mesh, the matrix from its world position in this frame to the next frame's (IDENTITY for
+    /// meshes that do not move).
+    pub mesh_motion: Vec<glam::Mat4>,
+    /// The analytic lights at the next frame (same count and kinds as the scene's).
+    pub lights: Vec<crate::scene::Light>,
 }
 
 impl<'a> FrameContext<'a> {
     /// The first frame of a still image, with the camera the frame resources were created with.
     pub fn still(ctx: &'a GpuContext, gpu_scene: &'a GpuScene, frame: &'a FrameResources) -> Self {
-        FrameContext { ctx, gpu_scene, frame, view: frame.view }
+        FrameContext { ctx, gpu_scene, frame, view: frame.view, next: None }
     }
 
     /// Accumulated samples before this frame: 0 on the first frame after any change.
@@ -169,6 +185,12 @@ pub trait Technique: Send {
     fn warnings(&self) -> Vec<String> {
         Vec::new()
     }
+
+    /// Whether the technique reads [`FrameContext::next`] (the renderer poses the scene a step ahead
+    /// only for those that do).
+    fn predicts_next_frame(&self) -> bool {
+        false
+    }
 }
 
 /// The frame inputs a technique reads; the frame core skips what nobody needs.
@@ -218,6 +240,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         lpv::INFO,
         vxgi::INFO,
         radiance_cache::INFO,
+        radiance_cache::TEMPORAL_INFO,
         env_harmonics::INFO,
     ]
 }

@@ -24,30 +24,68 @@ fn hit_gsurface(hit: SurfaceHit, towards_viewer: vec3f, distance: f32) -> GSurfa
     return s;
 }
 
-// One sample of light from emissive triangles, leaving from `origin` (off the surface).
-fn direct_emissive_sample(s: GSurface, origin: vec3f, u: vec3f) -> vec3f {
-    let ls = sample_area_light(origin, u);
-    let cos_surf = dot(s.normal, ls.direction);
-    if ls.pdf <= 0.0 || cos_surf <= 0.0 || dot(s.geometric_normal, ls.direction) <= 0.0 {
-        return vec3f(0.0);
-    }
-    if trace_any(Ray(origin, ls.direction), 0.0, ls.distance * (1.0 - 1e-3)) {
-        return vec3f(0.0);
-    }
-    return brdf_eval(s.material, s.normal, s.view, ls.direction) * ls.radiance * cos_surf / ls.pdf;
+// A light sample's reflected radiance without visibility (value), and the shadow ray that decides
+// it (from the caller's origin along `direction`, up to `distance`).
+struct UnshadowedSample {
+    value: vec3f,
+    direction: vec3f,
+    distance: f32,
 }
 
-// One sample of the environment (importance-sampled for maps, cosine-weighted otherwise).
-fn direct_environment_sample(s: GSurface, origin: vec3f, u: vec2f) -> vec3f {
+// One sample of light from emissive triangles, leaving from `origin` (off the surface), unshadowed.
+fn emissive_sample_unshadowed(s: GSurface, origin: vec3f, u: vec3f) -> UnshadowedSample {
+    let ls = sample_area_light(origin, u);
+    var r = UnshadowedSample(vec3f(0.0), ls.direction, ls.distance * (1.0 - 1e-3));
+    let cos_surf = dot(s.normal, ls.direction);
+    if ls.pdf > 0.0 && cos_surf > 0.0 && dot(s.geometric_normal, ls.direction) > 0.0 {
+        r.value = brdf_eval(s.material, s.normal, s.view, ls.direction) * ls.radiance * cos_surf / ls.pdf;
+    }
+    return r;
+}
+
+// One sample of the environment (importance-sampled for maps, cosine-weighted otherwise), unshadowed.
+fn environment_sample_unshadowed(s: GSurface, u: vec2f) -> UnshadowedSample {
     let es = sample_environment_light(s.normal, u);
+    var r = UnshadowedSample(vec3f(0.0), es.direction, FLT_MAX);
     let cos_theta = dot(s.normal, es.direction);
-    if es.pdf <= 0.0 || cos_theta <= 0.0 || dot(s.geometric_normal, es.direction) <= 0.0 {
+    if es.pdf > 0.0 && cos_theta > 0.0 && dot(s.geometric_normal, es.direction) > 0.0 {
+        r.value = brdf_eval(s.material, s.normal, s.view, es.direction) * es.radiance * cos_theta / es.pdf;
+    }
+    return r;
+}
+
+// The light an analytic light reflects off s towards s.view, unshadowed.
+fn analytic_light_unshadowed(s: GSurface, light: Light) -> UnshadowedSample {
+    let inc = light_incidence(light, s.position);
+    var r = UnshadowedSample(vec3f(0.0), inc.direction, inc.distance * (1.0 - 1e-4));
+    let cos_theta = dot(s.normal, inc.direction);
+    if cos_theta > 0.0 && dot(s.geometric_normal, inc.direction) > 0.0 && max3(inc.irradiance) > 0.0 {
+        r.value = brdf_eval(s.material, s.normal, s.view, inc.direction) * inc.irradiance * cos_theta;
+    }
+    return r;
+}
+
+// 1 where nothing blocks the sample's shadow ray from `origin`, else 0.
+fn sample_visibility(sample: UnshadowedSample, origin: vec3f) -> f32 {
+    return select(1.0, 0.0, trace_any(Ray(origin, sample.direction), 0.0, sample.distance));
+}
+
+// One sample of light from emissive triangles, leaving from `origin` (off the surface).
+fn direct_emissive_sample(s: GSurface, origin: vec3f, u: vec3f) -> vec3f {
+    let sample = emissive_sample_unshadowed(s, origin, u);
+    if all(sample.value == vec3f(0.0)) {
         return vec3f(0.0);
     }
-    if trace_any(Ray(origin, es.direction), 0.0, FLT_MAX) {
+    return sample.value * sample_visibility(sample, origin);
+}
+
+// One sample of the environment.
+fn direct_environment_sample(s: GSurface, origin: vec3f, u: vec2f) -> vec3f {
+    let sample = environment_sample_unshadowed(s, u);
+    if all(sample.value == vec3f(0.0)) {
         return vec3f(0.0);
     }
-    return brdf_eval(s.material, s.normal, s.view, es.direction) * es.radiance * cos_theta / es.pdf;
+    return sample.value * sample_visibility(sample, origin);
 }
 
 // Light from the analytic lights. Shadow maps are fitted to what the camera sees well; surfaces
@@ -56,18 +94,17 @@ fn direct_analytic(s: GSurface, origin: vec3f, traced_shadows: bool) -> vec3f {
     var radiance = vec3f(0.0);
     for (var i = 0u; i < scene_info.light_count; i++) {
         let light = lights[i];
-        let inc = light_incidence(light, s.position);
-        let cos_theta = dot(s.normal, inc.direction);
-        if cos_theta <= 0.0 || dot(s.geometric_normal, inc.direction) <= 0.0 || max3(inc.irradiance) <= 0.0 {
+        let sample = analytic_light_unshadowed(s, light);
+        if all(sample.value == vec3f(0.0)) {
             continue;
         }
         var vis = 0.0;
         if traced_shadows {
-            vis = select(1.0, 0.0, trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)));
+            vis = sample_visibility(sample, origin);
         } else {
             vis = shadow_visibility(light, s.position, s.geometric_normal);
         }
-        radiance += brdf_eval(s.material, s.normal, s.view, inc.direction) * inc.irradiance * cos_theta * vis;
+        radiance += sample.value * vis;
     }
     return radiance;
 }

@@ -24,16 +24,26 @@
 //! wall), an error of the order of the normals' angle on curved surfaces, which the thesis removes by
 //! rotating the coefficients.
 //!
-//! The cache is cleared when lights, the environment or geometry change (temporal reuse is
-//! `radiance-cache-temporal`'s job, not built yet).
+//! `radiance-cache` clears the cache when lights, the environment or geometry change.
+//! `radiance-cache-temporal` (Gautron et al. 2006; chapter 5 of the thesis, report §4) keeps it over
+//! an animation: the record pass also predicts each record one time step ahead (its hits moved with
+//! their meshes and shaded under the next frame's lights, with this frame's visibility, reprojected
+//! onto the record's hemisphere: [`super::NextPose`] from the renderer), the record's light is interpolated
+//! towards the prediction over its life (extrapolated temporal gradients), and it lives a_t / (its
+//! predicted relative change) frames, at most `max_lifespan`; then `cache aging` recomputes it where
+//! it is if it served a pixel the frame before, or deletes it (the thesis's occlusion query). Deleted
+//! slots are not reused: the capacity bounds the records ever placed since the cache was created.
+//! The thesis's interpolated temporal gradients need the records of the future (two passes over a
+//! predefined animation) and are not built.
 
 use std::collections::BTreeMap;
 
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
 use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::scene::{GpuLight, gpu_lights};
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
@@ -61,7 +71,10 @@ const LINEAR_WORKGROUP: u32 = 64;
 /// Hemisphere cells are held in workgroup memory (16 + 4 bytes each) within the 16 KiB every adapter has.
 const MAX_HEMISPHERE_SAMPLES: i64 = 768;
 
-const PARAMS: [ParamSpec; 21] = with_direct_params![
+/// The parameters of both cache techniques, then `$extra`.
+macro_rules! cache_params {
+    ($($extra:expr),* $(,)?) => {
+        with_direct_params![
     ParamSpec {
         name: "accuracy",
         kind: ParamKind::Float { min: 0.01, max: 1.0 },
@@ -140,6 +153,32 @@ const PARAMS: [ParamSpec; 21] = with_direct_params![
         default: "0",
         doc: "seed of the hemisphere jitter and of the placement's tie breaks",
     },
+            $($extra,)*
+        ]
+    };
+}
+
+const PARAMS: [ParamSpec; 21] = cache_params![];
+
+const TEMPORAL_PARAMS: [ParamSpec; 24] = cache_params![
+    ParamSpec {
+        name: "temporal_accuracy",
+        kind: ParamKind::Float { min: 0.001, max: 10.0 },
+        default: "0.05",
+        doc: "a_t: a record lives a_t / (its predicted relative change per time step) frames (Gautron et al. 2006 used 0.05)",
+    },
+    ParamSpec {
+        name: "max_lifespan",
+        kind: ParamKind::Int { min: 1, max: 100000 },
+        default: "20",
+        doc: "δt_max: frames a record lives at most, for changes its one-step prediction cannot see (1 = recompute every record every frame; the thesis: 5-20)",
+    },
+    ParamSpec {
+        name: "temporal_gradients",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "interpolate each record's light towards its prediction over its life (extrapolated temporal gradients); false = hold the light it was computed with",
+    },
 ];
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -153,6 +192,21 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create,
 };
 
+pub const TEMPORAL_INFO: TechniqueInfo = TechniqueInfo {
+    name: "radiance-cache-temporal",
+    description: "temporal radiance caching: records kept where they are over an animation, each living as long as its predicted change allows (one diffuse bounce)",
+    params: &TEMPORAL_PARAMS,
+    needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
+    motion: super::Motion::Temporal,
+    validate: validate_temporal,
+    create,
+};
+
+/// Hemisphere cells of the temporal record pass: it holds the prediction beside the cells (40 bytes
+/// each) in the 16 KiB of workgroup memory every adapter has.
+const MAX_TEMPORAL_HEMISPHERE_SAMPLES: i64 = 384;
+
 fn validate(p: &ParamValues) -> Result<(), String> {
     if p.float("min_zone") > p.float("max_zone") {
         return Err(format!(
@@ -162,6 +216,47 @@ fn validate(p: &ParamValues) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+fn validate_temporal(p: &ParamValues) -> Result<(), String> {
+    validate(p)?;
+    if p.int("hemisphere_samples") > MAX_TEMPORAL_HEMISPHERE_SAMPLES {
+        return Err(format!(
+            "hemisphere_samples ({}) is above {MAX_TEMPORAL_HEMISPHERE_SAMPLES}, the most the temporal record pass \
+             holds with its prediction",
+            p.int("hemisphere_samples")
+        ));
+    }
+    Ok(())
+}
+
+/// The temporal technique's settings (`None` for `radiance-cache`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct TemporalSettings {
+    accuracy: f32,
+    max_lifespan: u32,
+    gradients: bool,
+}
+
+impl TemporalSettings {
+    fn from_params(p: &ParamValues) -> Option<Self> {
+        p.get("max_lifespan")?;
+        Some(TemporalSettings {
+            accuracy: p.float("temporal_accuracy") as f32,
+            max_lifespan: p.int("max_lifespan") as u32,
+            gradients: p.bool("temporal_gradients"),
+        })
+    }
+}
+
+/// Mirrors `CacheUniforms` in bindings.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+struct CacheUniforms {
+    order: u32,
+    step: f32,
+    lights_move: u32,
+    _pad: u32,
 }
 
 /// Mirrors `Record` in cache.wgsl.
@@ -188,6 +283,13 @@ impl Record {
     pub fn error(&self, p: Vec3, n: Vec3) -> f32 {
         (p - self.position()).length() / self.position_radius[3]
             + (1.0 - n.dot(self.normal())).max(0.0).sqrt()
+    }
+
+    /// Frames the record lives (temporal mode), the twin of `record_lifespan`.
+    pub fn lifespan_frames(&self) -> u32 {
+        let created = self.translation[0][3] as u32;
+        let expiry = self.translation[1][3] as u32;
+        expiry.wrapping_sub(created) & 0xff_ffff
     }
 
     /// The twin of `record_weight_of_error`.
@@ -221,7 +323,10 @@ pub struct CacheState {
     pub missing_tiles: u32,
     pub unserved_tiles: u32,
     pub created_total: u32,
-    pub _pad: u32,
+    pub refreshed_this_frame: u32,
+    pub refreshed_total: u32,
+    pub deleted_total: u32,
+    pub _pad: [u32; 2],
 }
 
 /// The stratification of `samples` hemisphere rays: (M, N) cells in θ and φ with N ≈ πM, as Ward &
@@ -311,6 +416,11 @@ pub(crate) struct RadianceCache {
     compact_pipeline: wgpu::ComputePipeline,
     record_pipeline: wgpu::ComputePipeline,
     shade_pipeline: wgpu::ComputePipeline,
+    uniforms: wgpu::Buffer,
+    uniforms_written: CacheUniforms,
+    /// What `radiance-cache-temporal` adds (`None` for `radiance-cache`).
+    temporal: Option<Temporal>,
+    max_lifespan: u32,
     capacity: u32,
     cells: (u32, u32),
     iterations: u32,
@@ -320,12 +430,51 @@ pub(crate) struct RadianceCache {
     height: u32,
 }
 
+/// Temporal mode's resources: the next frame's lights and per-mesh motion (written only when they
+/// change), the per-frame counters and the passes that age records and refresh the expired ones.
+struct Temporal {
+    next_lights: wgpu::Buffer,
+    next_motion: wgpu::Buffer,
+    lights_written: Vec<GpuLight>,
+    motion_written: Vec<Mat4>,
+    counters: wgpu::Buffer,
+    age_pipeline: wgpu::ComputePipeline,
+    refresh_dispatch_pipeline: wgpu::ComputePipeline,
+    refresh_pipeline: wgpu::ComputePipeline,
+}
+
+impl Temporal {
+    /// Writes the next frame's pose (the current one, held, when none is known) and returns the
+    /// uniforms' step and whether the lights move.
+    fn write_next_pose(&mut self, fc: &FrameContext) -> (f32, bool) {
+        let (step, motion, lights) = match fc.next {
+            Some(next) => (next.time_step, next.mesh_motion.clone(), gpu_lights(&next.lights)),
+            None => (0.0, vec![Mat4::IDENTITY; self.motion_written.len()], fc.gpu_scene.lights.clone()),
+        };
+        if motion != self.motion_written && motion.len() == self.motion_written.len() {
+            fc.ctx.queue.write_buffer(&self.next_motion, 0, bytemuck::cast_slice(&motion));
+            self.motion_written = motion;
+        }
+        let bytes = |l: &[GpuLight]| bytemuck::cast_slice::<GpuLight, u8>(l).to_vec();
+        if !lights.is_empty()
+            && lights.len() == fc.gpu_scene.lights.len()
+            && bytes(&lights) != bytes(&self.lights_written)
+        {
+            fc.ctx.queue.write_buffer(&self.next_lights, 0, bytemuck::cast_slice(&lights));
+            self.lights_written = lights;
+        }
+        let moves = bytes(&self.lights_written) != bytes(&fc.gpu_scene.lights);
+        (step, moves)
+    }
+}
+
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     Ok(Box::new(RadianceCache::new(setup)?))
 }
 
 /// The defines every pass of the cache shares.
 fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x: u32) -> Defines {
+    let temporal = TemporalSettings::from_params(p);
     brdf_table_shape(p)
         .defines(Defines::new())
         .f32("ACCURACY", p.float("accuracy") as f32)
@@ -345,6 +494,11 @@ fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x:
         .f32("MAX_ZONE_PIXELS", p.float("max_zone") as f32)
         .bool("GRADIENTS", p.bool("gradients"))
         .u32("SEED", p.int("seed") as u32)
+        .bool("TEMPORAL", temporal.is_some())
+        .bool("TEMPORAL_GRADIENTS", temporal.is_some_and(|t| t.gradients))
+        .f32("TEMPORAL_ACCURACY", temporal.map_or(0.0, |t| t.accuracy))
+        .u32("MAX_LIFESPAN", temporal.map_or(1, |t| t.max_lifespan))
+        .u32("NEXT_CELLS", if temporal.is_some() { cells.0 * cells.1 } else { 1 })
 }
 
 /// The composed source of a cache pass: the records, the cache's bindings, the BRDF table lookup, then
@@ -380,12 +534,15 @@ impl RadianceCache {
         let bin_tiles = [width.div_ceil(BIN_TILE), height.div_ceil(BIN_TILE)];
         let words = u64::from(capacity / 32);
         let bin_bytes = u64::from(bin_tiles[0] * bin_tiles[1]) * words * 4;
-        let record_bytes = u64::from(capacity) * size_of::<Record>() as u64;
+        let temporal = TemporalSettings::from_params(p);
+        // Temporal mode keeps each record's prediction beside it (a second plane).
+        let planes = if temporal.is_some() { 2 } else { 1 };
+        let record_bytes = planes * u64::from(capacity) * size_of::<Record>() as u64;
         ctx.check_storage_size("the radiance cache's records", record_bytes)?;
         let glossy = glossy_enabled(p);
         let shape = brdf_table_shape(p);
         let radiance_bytes =
-            if glossy { u64::from(capacity) * u64::from(shape.coefficients()) * 9 * 4 } else { 4 };
+            if glossy { planes * u64::from(capacity) * u64::from(shape.coefficients()) * 9 * 4 } else { 4 };
         ctx.check_storage_size(
             "the radiance cache's HSH radiance records (lower records or hsh_order)",
             radiance_bytes,
@@ -410,10 +567,32 @@ impl RadianceCache {
             }),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let glossy_shape = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("radiance cache glossy shape"),
-            contents: bytemuck::cast_slice(&[shape.order, 0, 0, 0]),
-            usage: wgpu::BufferUsages::UNIFORM,
+        let uniforms_written = CacheUniforms { order: shape.order, step: 0.0, lights_move: 0, _pad: 0 };
+        let uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("radiance cache uniforms"),
+            contents: bytemuck::bytes_of(&uniforms_written),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        // Temporal mode's buffers (4 bytes each otherwise: the passes declare them either way).
+        let temporal_bytes = |bytes: u64| if temporal.is_some() { bytes.max(4) } else { 4 };
+        let record_used = storage("radiance cache record use", temporal_bytes(u64::from(capacity) * 4));
+        let scene_lights = &setup.gpu_scene.lights;
+        let next_lights =
+            storage("radiance cache next lights", (scene_lights.len().max(1) * size_of::<GpuLight>()) as u64);
+        if temporal.is_some() && !scene_lights.is_empty() {
+            ctx.queue.write_buffer(&next_lights, 0, bytemuck::cast_slice(scene_lights));
+        }
+        let mesh_count = setup.gpu_scene.mesh_ranges.len();
+        let next_motion = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("radiance cache next motion"),
+            contents: bytemuck::cast_slice(&vec![Mat4::IDENTITY; mesh_count.max(1)]),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
+        let temporal_counters = storage("radiance cache temporal counters", 8);
+        let mesh_starts = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("radiance cache mesh starts"),
+            contents: bytemuck::cast_slice(&crate::frame::mesh_starts(&setup.gpu_scene.mesh_ranges)),
+            usage: wgpu::BufferUsages::STORAGE,
         });
         let state = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("radiance cache state"),
@@ -454,6 +633,11 @@ impl RadianceCache {
                 uniform_entry(10),
                 storage_buffer_entry(11, true),
                 storage_buffer_entry(12, true),
+                storage_buffer_entry(13, false),
+                storage_buffer_entry(14, true),
+                storage_buffer_entry(15, true),
+                storage_buffer_entry(16, false),
+                storage_buffer_entry(17, true),
             ],
         );
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
@@ -474,9 +658,14 @@ impl RadianceCache {
                 wgpu::BindingResource::TextureView(&direct_view),
                 wgpu::BindingResource::TextureView(&output_view),
                 radiance.as_entire_binding(),
-                glossy_shape.as_entire_binding(),
+                uniforms.as_entire_binding(),
                 brdf_tables.as_ref().map_or(&no_tables, |t| &t.buffer).as_entire_binding(),
                 cell_harmonics.as_entire_binding(),
+                record_used.as_entire_binding(),
+                next_lights.as_entire_binding(),
+                next_motion.as_entire_binding(),
+                temporal_counters.as_entire_binding(),
+                mesh_starts.as_entire_binding(),
             ],
         );
         let dispatch_layout =
@@ -510,13 +699,36 @@ impl RadianceCache {
             pipeline("radiance cache records", include_str!("record.wgsl"), "compute_record", &groups)?;
         let shade_pipeline =
             pipeline("radiance cache shading", include_str!("shade.wgsl"), "shade", &groups)?;
-        // The compaction alone writes the record pass's dispatch arguments (group 3).
-        let compact_pipeline = pipeline(
-            "radiance cache compaction",
-            place,
-            "compact",
-            &[groups[0], groups[1], groups[2], &dispatch_layout],
-        )?;
+        // The compaction (and temporal mode's refresh dispatch) alone write the record pass's dispatch
+        // arguments (group 3).
+        let with_dispatch = [groups[0], groups[1], groups[2], &dispatch_layout];
+        let compact_pipeline = pipeline("radiance cache compaction", place, "compact", &with_dispatch)?;
+        let temporal = match temporal {
+            Some(_) => {
+                let aging = include_str!("temporal.wgsl");
+                Some(Temporal {
+                    next_lights,
+                    next_motion,
+                    lights_written: setup.gpu_scene.lights.clone(),
+                    motion_written: vec![Mat4::IDENTITY; mesh_count],
+                    counters: temporal_counters,
+                    age_pipeline: pipeline("radiance cache aging", aging, "age_records", &groups)?,
+                    refresh_dispatch_pipeline: pipeline(
+                        "radiance cache refresh dispatch",
+                        aging,
+                        "refresh_dispatch",
+                        &with_dispatch,
+                    )?,
+                    refresh_pipeline: pipeline(
+                        "radiance cache refresh",
+                        include_str!("record.wgsl"),
+                        "refresh_record",
+                        &groups,
+                    )?,
+                })
+            }
+            None => None,
+        };
 
         Ok(RadianceCache {
             direct,
@@ -540,6 +752,10 @@ impl RadianceCache {
             compact_pipeline,
             record_pipeline,
             shade_pipeline,
+            uniforms,
+            uniforms_written,
+            max_lifespan: TemporalSettings::from_params(p).map_or(1, |t| t.max_lifespan),
+            temporal,
             capacity,
             cells,
             iterations: p.int("iterations") as u32,
@@ -614,14 +830,74 @@ impl RadianceCache {
         self.splat(fc, profiler)
     }
 
+    /// Temporal mode, before the frame's splat: the next frame's pose for the record pass, then
+    /// expired records refreshed in place (or deleted when nothing used them).
+    fn age_and_refresh(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let Some(temporal) = self.temporal.as_mut() else {
+            return Ok(());
+        };
+        let (step, lights_move) = temporal.write_next_pose(fc);
+        let uniforms = CacheUniforms { step, lights_move: u32::from(lights_move), ..self.uniforms_written };
+        if uniforms != self.uniforms_written {
+            fc.ctx.queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+            self.uniforms_written = uniforms;
+        }
+        let temporal = self.temporal.as_ref().expect("temporal mode");
+        let groups = self.groups(fc);
+        profiler.pass(fc.ctx, "cache aging", |encoder| {
+            encoder.clear_buffer(&temporal.counters, 0, None);
+            compute::dispatch(
+                encoder,
+                "cache aging",
+                &temporal.age_pipeline,
+                &groups,
+                [self.capacity.div_ceil(LINEAR_WORKGROUP), 1, 1],
+            );
+            compute::dispatch(
+                encoder,
+                "cache refresh dispatch",
+                &temporal.refresh_dispatch_pipeline,
+                &[groups[0], groups[1], groups[2], &self.dispatch_group],
+                [1, 1, 1],
+            );
+        })?;
+        profiler.pass(fc.ctx, "record refresh", |encoder| {
+            crate::gpu::dispatch::dispatch_indirect(
+                encoder,
+                "record refresh",
+                &temporal.refresh_pipeline,
+                &groups,
+                &self.record_dispatch,
+                0,
+            );
+        })?;
+        Ok(())
+    }
+
     /// The cache's counters, read back.
     pub(crate) fn read_state(&self, ctx: &GpuContext) -> Result<CacheState, RenderError> {
         let bytes = readback::read_buffer(ctx, &self.state, 0, size_of::<CacheState>() as u64)?;
         Ok(*bytemuck::from_bytes(&bytes))
     }
 
-    /// The first `count` records, read back.
+    /// Temporal mode: the predictions (plane 1) of the first `count` records, read back.
     #[cfg(test)]
+    pub(crate) fn read_predictions(&self, ctx: &GpuContext, count: u32) -> Result<Vec<Record>, RenderError> {
+        let size = size_of::<Record>() as u64;
+        let bytes = readback::read_buffer(
+            ctx,
+            &self.records,
+            u64::from(self.capacity) * size,
+            u64::from(count) * size,
+        )?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+
+    fn max_lifespan(&self) -> u32 {
+        self.max_lifespan
+    }
+
+    /// The first `count` records, read back.
     pub(crate) fn read_records(&self, ctx: &GpuContext, count: u32) -> Result<Vec<Record>, RenderError> {
         if count == 0 {
             return Ok(Vec::new());
@@ -646,6 +922,9 @@ impl Technique for RadianceCache {
             tables.build_once(fc, profiler)?;
         }
         self.direct.render(fc, profiler)?;
+        if self.temporal.is_some() {
+            self.age_and_refresh(fc, profiler)?;
+        }
         self.splat(fc, profiler)?;
         for _ in 0..self.iterations {
             self.place_records(fc, profiler)?;
@@ -663,7 +942,10 @@ impl Technique for RadianceCache {
         let mut c = BTreeMap::from([
             ("records".to_string(), f64::from(s.count)),
             ("record_capacity".to_string(), f64::from(self.capacity)),
-            ("records_created_last_frame".to_string(), f64::from(s.created_this_frame)),
+            (
+                "records_created_last_frame".to_string(),
+                f64::from(s.created_this_frame - s.refreshed_this_frame),
+            ),
             ("missing_tiles_last_round".to_string(), f64::from(s.missing_tiles)),
             ("unserved_tiles_last_round".to_string(), f64::from(s.unserved_tiles)),
             ("hemisphere_rays_per_record".to_string(), f64::from(self.cells.0 * self.cells.1)),
@@ -683,18 +965,39 @@ impl Technique for RadianceCache {
         if let Some(ms) = measured.pass_mean_ms("record computation") {
             c.insert("record_computation_ms_per_round".into(), ms);
         }
+        if self.temporal.is_some() {
+            c.insert("records_refreshed_last_frame".into(), f64::from(s.refreshed_this_frame));
+            c.insert("records_refreshed".into(), f64::from(s.refreshed_total));
+            c.insert("records_created".into(), f64::from(s.created_total));
+            c.insert("records_deleted".into(), f64::from(s.deleted_total));
+            c.insert("records_live".into(), f64::from(s.count - s.deleted_total));
+            let records = self.read_records(ctx, s.count)?;
+            let live: Vec<&Record> = records.iter().filter(|r| r.normal[3] > -0.5).collect();
+            if !live.is_empty() {
+                let n = live.len() as f64;
+                let lifespans = live.iter().map(|r| f64::from(r.lifespan_frames()));
+                c.insert("mean_record_lifespan_frames".into(), lifespans.sum::<f64>() / n);
+                let full = live.iter().filter(|r| r.lifespan_frames() >= self.max_lifespan()).count();
+                c.insert("records_at_max_lifespan".into(), full as f64);
+            }
+        }
         Ok(c)
     }
 
-    // Records hold light that no longer holds after any change: clear the cache and refill it.
+    // Records hold light that no longer holds after any change: `radiance-cache` clears the cache
+    // and refills it; the temporal cache keeps its records, which age out by their lifespans.
     fn scene_changed(
         &mut self,
         _: &GpuContext,
         _: &crate::gpu::GpuScene,
         _: SceneChange,
     ) -> Result<bool, RenderError> {
-        self.clear_pending = true;
+        self.clear_pending = self.temporal.is_none();
         Ok(true)
+    }
+
+    fn predicts_next_frame(&self) -> bool {
+        self.temporal.is_some()
     }
 
     fn warnings(&self) -> Vec<String> {

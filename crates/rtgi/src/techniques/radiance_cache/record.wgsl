@@ -9,8 +9,17 @@
 // glossy surface is a radiance record: the threads also project the cells onto the HSH of the
 // record's frame, each thread its coefficients, with per-coefficient translational gradients by
 // Ward & Heckbert's boundary terms with the basis function in place of cos θ (see project_radiance).
+//
+// In temporal mode (`radiance-cache-temporal`) the pass also predicts the record one time step
+// ahead, as Gautron et al. (2006) do on the GPU: every hit is moved with its mesh to the next frame's
+// pose and shaded there (direct_light_pair: the next frame's lights, this frame's visibility), then
+// reprojected onto the record's hemisphere, which stays where it is; the nearest point wins a cell (a
+// z-buffer of atomic minima), cells no point reaches take the farthest of their neighbours (the
+// thesis's hole filling with the background). The same sums then give the predicted record (plane 1),
+// the change between the two its lifespan: a_t / change frames, at most MAX_LIFESPAN.
 
-#import common/direct_light.wgsl
+#import common/direct_light_prediction.wgsl
+#import common/mesh_of_triangle.wgsl
 
 const RECORD_THREADS: u32 = 64u;
 const CELLS: u32 = SAMPLES_THETA * SAMPLES_PHI;
@@ -18,6 +27,18 @@ const CELLS: u32 = SAMPLES_THETA * SAMPLES_PHI;
 var<workgroup> cell_radiance: array<vec3f, CELLS>;
 // 1 / hit distance (0 for rays that leave the scene).
 var<workgroup> cell_inverse_distance: array<f32, CELLS>;
+// Temporal mode (NEXT_CELLS = CELLS, else 1): per cell, the predicted radiance of its hit (indexed by
+// the cell the ray left through), and the z-buffer of the reprojection (indexed by the cell a moved
+// hit lands in): the landing hit's distance bits above its source cell, NO_LANDING or BACKGROUND.
+var<workgroup> next_radiance: array<vec3f, NEXT_CELLS>;
+var<workgroup> next_key: array<atomic<u32>, NEXT_CELLS>;
+// The largest relative change of a radiance record's coefficients (f32 bits).
+var<workgroup> coefficient_change: atomic<u32>;
+
+const NO_LANDING: u32 = 0xffffffffu;
+// A cell whose ray left the scene and where no moved hit lands: it still sees the background.
+const BACKGROUND: u32 = 0xfffffffeu;
+const SOURCE_BITS: u32 = 0x3ffu;
 
 fn cell_index(j: u32, k: u32) -> u32 {
     return j * SAMPLES_PHI + k;
@@ -37,7 +58,7 @@ fn cell_direction(cell: u32, rng: ptr<function, Rng>) -> vec3f {
 // take it: λ_i = Σ L_cell ∫_cell H_i, and the boundary terms weigh the radiance steps with the basis
 // integrated along the boundary (cell_harmonics, from the host) where Ward's irradiance weighs them
 // with cos θ. With cos θ in the HSH span, Σ_i (∫ H_i cos) λ_i is the irradiance record's E exactly.
-fn project_radiance(k: u32, i: u32) {
+fn project_radiance(k: u32, i: u32, plane: u32) {
     var lambda = vec3f(0.0);
     var gradient_x = vec3f(0.0);
     var gradient_y = vec3f(0.0);
@@ -67,7 +88,7 @@ fn project_radiance(k: u32, i: u32) {
         }
     }
     let g = select(0.0, 1.0, GRADIENTS);
-    let e = radiance_index(k, i);
+    let e = radiance_index(k, i, plane);
     radiance[e] = lambda.x;
     radiance[e + 1u] = lambda.y;
     radiance[e + 2u] = lambda.z;
@@ -79,41 +100,115 @@ fn project_radiance(k: u32, i: u32) {
     radiance[e + 8u] = g * gradient_y.z;
 }
 
-@compute @workgroup_size(RECORD_THREADS, 1, 1)
-fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
-    let slot = group.x;
-    let k = state.splat_begin + slot;
-    let packed = new_pixels[slot];
-    let pixel = vec2u(packed & 0xffffu, packed >> 16u);
-    let s = load_gsurface(pixel);
-    let origin = gsurface_ray_origin(s);
+// Where a record sits and what it serves.
+struct RecordSurface {
+    position: vec3f,
+    normal: vec3f,
+    geometric_normal: vec3f,
+    // Where its rays leave from (off the surface).
+    origin: vec3f,
+    glossy: bool,
+    // World size of a pixel at the record in the view that placed it (bounds its zone).
+    footprint: f32,
+}
+
+// The cell of a direction in the record's frame (z > 0).
+fn cell_of(local: vec3f) -> u32 {
+    let sin2 = max(0.0, 1.0 - local.z * local.z);
+    let j = min(u32(sin2 * f32(SAMPLES_THETA)), SAMPLES_THETA - 1u);
+    var phi = atan2(local.y, local.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let c = min(u32(phi / (2.0 * PI) * f32(SAMPLES_PHI)), SAMPLES_PHI - 1u);
+    return cell_index(j, c);
+}
+
+// Traces the cells of the record (this thread's share) into cell_radiance / cell_inverse_distance;
+// in temporal mode also predicts each hit and lands it in the z-buffer.
+fn trace_cells(k: u32, rs: RecordSurface, thread: u32) {
     for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
         var rng = rng_new(vec2u(k, cell), 0u, hash2(SEED, 0x72637264u));
-        let dir = local_to_world(cell_direction(cell, &rng), s.normal);
-        let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
+        let dir = local_to_world(cell_direction(cell, &rng), rs.normal);
+        let hit = trace_closest(Ray(rs.origin, dir), 0.0, FLT_MAX);
         var radiance = vec3f(0.0);
         var inverse_distance = 0.0;
         if hit.t < FLT_MAX {
             inverse_distance = 1.0 / max(hit.t, 1e-6);
-            if !hits_back_face(hit.triangle, hit.u, hit.v, dir) {
-                let h = hit_gsurface(surface_at(hit.triangle, hit.u, hit.v, dir), -dir, hit.t);
-                radiance = direct_light(h, offset_origin(h.position, h.geometric_normal), &rng, 1u, 1u, true);
+            let h = hit_gsurface(surface_at(hit.triangle, hit.u, hit.v, dir), -dir, hit.t);
+            let front = !hits_back_face(hit.triangle, hit.u, hit.v, dir);
+            let origin = offset_origin(h.position, h.geometric_normal);
+            if TEMPORAL {
+                let motion = next_motion[mesh_of_triangle(hit.triangle)];
+                var moved = h;
+                moved.position = (motion * vec4f(h.position, 1.0)).xyz;
+                moved.normal = normalize((motion * vec4f(h.normal, 0.0)).xyz);
+                moved.geometric_normal = normalize((motion * vec4f(h.geometric_normal, 0.0)).xyz);
+                // Seen from where the rays leave, so that a hit that does not move lands in its own cell.
+                let to_record = rs.origin - moved.position;
+                moved.view = normalize(to_record);
+                var predicted = vec3f(0.0);
+                if front {
+                    let pair = direct_light_pair(
+                        h, moved, origin, offset_origin(moved.position, moved.geometric_normal), &rng, 1u, 1u,
+                    );
+                    radiance = pair.now;
+                    predicted = pair.next;
+                }
+                next_radiance[cell] = predicted;
+                let local = world_to_local(-to_record, rs.normal);
+                let distance = length(to_record);
+                if local.z > 0.0 && distance > 0.0 {
+                    let key = (bitcast<u32>(distance) & ~SOURCE_BITS) | cell;
+                    atomicMin(&next_key[cell_of(local / distance)], key);
+                }
+            } else if front {
+                radiance = direct_light(h, origin, &rng, 1u, 1u, true);
             }
+        } else if TEMPORAL {
+            atomicMin(&next_key[cell], BACKGROUND);
         }
         cell_radiance[cell] = radiance;
         cell_inverse_distance[cell] = inverse_distance;
     }
-    workgroupBarrier();
-    let glossy = is_glossy(s.material);
-    if glossy {
-        for (var i = thread; i < radiance_coefficients(); i += RECORD_THREADS) {
-            project_radiance(k, i);
+}
+
+// Temporal mode: replaces this thread's cells by the prediction: the landing hit's radiance and
+// distance; the background where nothing lands on a cell that saw it; in a hole, the farthest landed
+// neighbour (θ ± 1, φ ± 1; the background is the farthest); the cell as it is where no neighbour landed.
+fn resolve_prediction(rs: RecordSurface, thread: u32) {
+    for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
+        var key = atomicLoad(&next_key[cell]);
+        if key == NO_LANDING {
+            let j = cell / SAMPLES_PHI;
+            let c = cell % SAMPLES_PHI;
+            var neighbours = array<u32, 4>(
+                cell_index(j, (c + 1u) % SAMPLES_PHI),
+                cell_index(j, (c + SAMPLES_PHI - 1u) % SAMPLES_PHI),
+                cell_index(min(j + 1u, SAMPLES_THETA - 1u), c),
+                cell_index(select(j - 1u, 0u, j == 0u), c),
+            );
+            for (var n = 0u; n < 4u; n++) {
+                let other = atomicLoad(&next_key[neighbours[n]]);
+                // Keys order by distance, so the farthest landed neighbour has the largest key
+                // short of NO_LANDING (BACKGROUND beats every landed hit).
+                if other != NO_LANDING && (key == NO_LANDING || other > key) {
+                    key = other;
+                }
+            }
+        }
+        if key == BACKGROUND {
+            cell_radiance[cell] = vec3f(0.0);
+            cell_inverse_distance[cell] = 0.0;
+        } else if key != NO_LANDING {
+            cell_radiance[cell] = next_radiance[key & SOURCE_BITS];
+            cell_inverse_distance[cell] = 1.0 / max(bitcast<f32>(key & ~SOURCE_BITS), 1e-6);
         }
     }
-    if thread != 0u {
-        return;
-    }
+}
 
+// The irradiance record of the traced cells (thread 0): irradiance, gradients and R.
+fn irradiance_record(rs: RecordSurface) -> Record {
     let m = f32(SAMPLES_THETA);
     let n = f32(SAMPLES_PHI);
     var irradiance = vec3f(0.0);
@@ -159,21 +254,130 @@ fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation
     rotation = rotation * scale;
 
     // R: the harmonic mean distance, its zone a·R clamped to [MIN_ZONE_PIXELS, MAX_ZONE_PIXELS] pixels
-    // of this view (the thesis does not clamp; without a floor, corners fill with tiny records).
-    let footprint = s.distance
-        * length(primary_ray_through(vec2f(pixel) + vec2f(1.5, 0.5)) - primary_ray_through(vec2f(pixel) + 0.5));
+    // of the placing view (the thesis does not clamp; without a floor, corners fill with tiny records).
     let harmonic = select(3.0e38, f32(CELLS) / inverse_sum, inverse_sum > 0.0);
-    let accuracy = kind_accuracy(glossy);
-    let radius = clamp(harmonic, MIN_ZONE_PIXELS * footprint / accuracy, MAX_ZONE_PIXELS * footprint / accuracy);
+    let accuracy = kind_accuracy(rs.glossy);
+    let radius =
+        clamp(harmonic, MIN_ZONE_PIXELS * rs.footprint / accuracy, MAX_ZONE_PIXELS * rs.footprint / accuracy);
 
     var r: Record;
-    r.position_radius = vec4f(s.position, radius);
-    r.normal = vec4f(s.normal, select(0.0, 1.0, glossy));
-    r.irradiance = vec4f(irradiance, 0.0);
+    r.position_radius = vec4f(rs.position, radius);
+    r.normal = vec4f(rs.normal, select(0.0, 1.0, rs.glossy));
+    r.irradiance = vec4f(irradiance, rs.footprint);
     for (var ch = 0u; ch < 3u; ch++) {
         let g = select(0.0, 1.0, GRADIENTS);
-        r.rotation[ch] = vec4f(g * local_to_world(rotation[ch], s.normal), 0.0);
-        r.translation[ch] = vec4f(g * local_to_world(translation[ch], s.normal), 0.0);
+        r.rotation[ch] = vec4f(g * local_to_world(rotation[ch], rs.normal), 0.0);
+        r.translation[ch] = vec4f(g * local_to_world(translation[ch], rs.normal), 0.0);
     }
-    records[k] = r;
+    return r;
+}
+
+// The largest change of coefficient i (of this thread's) between the record and its prediction,
+// relative to the record's mean radiance (λ_0): the thesis's max_i λ_1^i / λ_0^i, which is unbounded
+// where a coefficient is near 0.
+fn note_coefficient_change(k: u32, i: u32) {
+    let e0 = radiance_index(k, i, 0u);
+    let e1 = radiance_index(k, i, 1u);
+    let base = radiance_index(k, 0u, 0u);
+    let mean = max(max3(abs(vec3f(radiance[base], radiance[base + 1u], radiance[base + 2u]))), 1e-20);
+    let change = abs(vec3f(radiance[e1], radiance[e1 + 1u], radiance[e1 + 2u]) - vec3f(radiance[e0], radiance[e0 + 1u], radiance[e0 + 2u]));
+    atomicMax(&coefficient_change, bitcast<u32>(max3(change) / mean));
+}
+
+// Computes record k at rs (every thread of the workgroup calls it): plane 0, and in temporal mode
+// plane 1 and the lifespan.
+fn build_record(k: u32, rs: RecordSurface, thread: u32) {
+    if TEMPORAL {
+        for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
+            atomicStore(&next_key[cell], NO_LANDING);
+        }
+        if thread == 0u {
+            atomicStore(&coefficient_change, 0u);
+        }
+        workgroupBarrier();
+    }
+    trace_cells(k, rs, thread);
+    workgroupBarrier();
+    if rs.glossy {
+        for (var i = thread; i < radiance_coefficients(); i += RECORD_THREADS) {
+            project_radiance(k, i, 0u);
+        }
+    }
+    var r: Record;
+    if thread == 0u {
+        r = irradiance_record(rs);
+        r.rotation[0].w = frame.time;
+        r.rotation[1].w = select(0.0, cache_uniforms.step, TEMPORAL);
+        r.translation[0].w = record_frame_number(frame.frame_counter);
+        r.translation[1].w = record_frame_number(frame.frame_counter + MAX_LIFESPAN);
+        r.translation[2].w = encode_record_normal(rs.geometric_normal);
+    }
+    if !TEMPORAL {
+        if thread == 0u {
+            records[k] = r;
+        }
+        return;
+    }
+    workgroupBarrier();
+    resolve_prediction(rs, thread);
+    workgroupBarrier();
+    if rs.glossy {
+        for (var i = thread; i < radiance_coefficients(); i += RECORD_THREADS) {
+            project_radiance(k, i, 1u);
+            note_coefficient_change(k, i);
+        }
+    }
+    workgroupBarrier();
+    if thread == 0u {
+        var next = irradiance_record(rs);
+        next.position_radius.w = r.position_radius.w;
+        var change = max3(abs(next.irradiance.rgb - r.irradiance.rgb)) / max(max3(r.irradiance.rgb), 1e-20);
+        if rs.glossy {
+            change = bitcast<f32>(atomicLoad(&coefficient_change));
+        }
+        // a_t / change steps, at least one frame (Gautron et al.'s w_t ≥ 1/a_t with |τ − 1| for τ).
+        var lifespan = MAX_LIFESPAN;
+        if change * f32(MAX_LIFESPAN) > TEMPORAL_ACCURACY {
+            lifespan = max(1u, u32(TEMPORAL_ACCURACY / change));
+        }
+        r.rotation[2].w = change;
+        r.translation[1].w = record_frame_number(frame.frame_counter + lifespan);
+        records[k] = r;
+        records[CAPACITY + k] = next;
+        atomicStore(&record_used[k], frame.frame_counter);
+    }
+}
+
+// A new record at the pixel the placement picked for slot `group.x`.
+@compute @workgroup_size(RECORD_THREADS, 1, 1)
+fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
+    let slot = group.x;
+    let k = state.splat_begin + slot;
+    let packed = new_pixels[slot];
+    let pixel = vec2u(packed & 0xffffu, packed >> 16u);
+    let s = load_gsurface(pixel);
+    let footprint = s.distance
+        * length(primary_ray_through(vec2f(pixel) + vec2f(1.5, 0.5)) - primary_ray_through(vec2f(pixel) + 0.5));
+    let rs = RecordSurface(
+        s.position, s.normal, s.geometric_normal, gsurface_ray_origin(s), is_glossy(s.material), footprint,
+    );
+    build_record(k, rs, thread);
+}
+
+// Temporal mode: an expired record recomputed where it is (the thesis's replacement at a fixed
+// location), its index in slot `group.x` of the refresh list.
+@compute @workgroup_size(RECORD_THREADS, 1, 1)
+fn refresh_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
+    let k = new_pixels[group.x];
+    let old = records[k];
+    let ng = record_geometric_normal(old);
+    let rs = RecordSurface(
+        old.position_radius.xyz,
+        old.normal.xyz,
+        ng,
+        offset_origin(old.position_radius.xyz, ng),
+        record_is_radiance(old),
+        old.irradiance.w,
+    );
+    build_record(k, rs, thread);
 }

@@ -65,9 +65,10 @@ fn irradiance_sum(tiles: TileSet, begin: u32, s: GSurface) -> vec4f {
             bits &= bits - 1u;
             let r = records[k];
             let e = record_error(r, s.position, s.normal);
-            if !record_is_radiance(r) && e <= ACCURACY {
+            if !record_is_radiance(r) && !record_is_deleted(r) && e <= ACCURACY {
                 let w = record_weight_of_error(e);
-                sum += vec4f(w * record_irradiance(r, s.position, s.normal), w);
+                sum += vec4f(w * record_irradiance_now(k, r, s.position, s.normal), w);
+                mark_used(k);
             }
         }
     }
@@ -88,6 +89,9 @@ fn radiance_sum(tiles: TileSet, begin: u32, s: GSurface, i: u32) -> vec4f {
             if record_is_radiance(r) && e <= GLOSSY_ACCURACY {
                 let w = record_weight_of_error(e);
                 sum += vec4f(w * record_radiance(k, r, i, s.position), w);
+                if i == 0u {
+                    mark_used(k);
+                }
             }
         }
     }
