@@ -893,10 +893,6 @@ impl RadianceCache {
         Ok(bytemuck::cast_slice(&bytes).to_vec())
     }
 
-    fn max_lifespan(&self) -> u32 {
-        self.max_lifespan
-    }
-
     /// The first `count` records, read back.
     pub(crate) fn read_records(&self, ctx: &GpuContext, count: u32) -> Result<Vec<Record>, RenderError> {
         if count == 0 {
@@ -977,7 +973,7 @@ impl Technique for RadianceCache {
                 let n = live.len() as f64;
                 let lifespans = live.iter().map(|r| f64::from(r.lifespan_frames()));
                 c.insert("mean_record_lifespan_frames".into(), lifespans.sum::<f64>() / n);
-                let full = live.iter().filter(|r| r.lifespan_frames() >= self.max_lifespan()).count();
+                let full = live.iter().filter(|r| r.lifespan_frames() >= self.max_lifespan).count();
                 c.insert("records_at_max_lifespan".into(), full as f64);
             }
         }

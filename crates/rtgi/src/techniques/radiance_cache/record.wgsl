@@ -147,8 +147,14 @@ fn trace_cells(k: u32, rs: RecordSurface, thread: u32) {
                 // Seen from where the rays leave, so that a hit that does not move lands in its own cell.
                 let to_record = rs.origin - moved.position;
                 moved.view = normalize(to_record);
+                // A hit that stays put under lights that stay put is lit the same next frame: shade it once.
+                let still = all(motion[0] == vec4f(1.0, 0.0, 0.0, 0.0)) && all(motion[1] == vec4f(0.0, 1.0, 0.0, 0.0))
+                    && all(motion[2] == vec4f(0.0, 0.0, 1.0, 0.0)) && all(motion[3] == vec4f(0.0, 0.0, 0.0, 1.0));
                 var predicted = vec3f(0.0);
-                if front {
+                if front && still && cache_uniforms.lights_move == 0u {
+                    radiance = direct_light(h, origin, &rng, 1u, 1u, true);
+                    predicted = radiance;
+                } else if front {
                     let pair = direct_light_pair(
                         h, moved, origin, offset_origin(moved.position, moved.geometric_normal), &rng, 1u, 1u,
                     );
