@@ -198,14 +198,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             }
         }
         renderer.set_time(args.time)?;
-        if sequence.is_some() && !args.hold {
-            renderer.set_time_step(1.0 / args.fps)?;
-        }
+        let frame_step = if sequence.is_some() && !args.hold { 1.0 / args.fps } else { 0.0 };
         for frame in 0..args.frames {
             if let Some(pattern) = &sequence {
                 let advance = if args.hold { 0.0 } else { frame as f32 / args.fps };
                 renderer.set_time(args.time + advance)?;
-                for _ in 0..args.accumulate {
+                // The steps accumulated into one output frame hold its pose; the last one looks
+                // ahead to the next output frame.
+                for k in 0..args.accumulate {
+                    renderer.set_time_step(if k + 1 == args.accumulate { frame_step } else { 0.0 })?;
                     renderer.step()?;
                 }
                 let path = pattern.path(frame);

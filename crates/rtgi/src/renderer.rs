@@ -273,6 +273,10 @@ pub struct Renderer {
     previous_time: Option<f32>,
     /// Scene seconds between frames, when the caller knows them ([`Self::set_time_step`]).
     time_step: Option<f32>,
+    /// The time step over which the last frame predicted a change ([`NextPose`]), if it did.
+    predicted_change_step: Option<f32>,
+    /// Meshes, lights or the environment moved since the last frame.
+    scene_moved: bool,
     camera: Camera,
     camera_override: bool,
     jitter: Jitter,
@@ -330,6 +334,8 @@ impl Renderer {
             time: 0.0,
             previous_time: None,
             time_step: None,
+            predicted_change_step: None,
+            scene_moved: false,
             camera,
             camera_override: false,
             jitter: Jitter::None,
@@ -481,6 +487,7 @@ impl Renderer {
         let ctx = self.ctx.clone();
         if pose.mesh_transforms != self.posed.mesh_transforms {
             self.restart_accumulation();
+            self.scene_moved = true;
             let moved: Vec<usize> = (0..pose.mesh_transforms.len())
                 .filter(|&m| pose.mesh_transforms[m] != self.posed.mesh_transforms[m])
                 .collect();
@@ -528,6 +535,7 @@ impl Renderer {
         let environment_changed = sun(&self.posed.scene.environment) != sun_before;
         if environment_changed {
             self.restart_accumulation();
+            self.scene_moved = true;
             let in_place = ctx.checked("changing the environment", || {
                 self.gpu_scene.update_environment(&ctx, &self.posed.scene.environment)
             })??;
@@ -545,6 +553,7 @@ impl Renderer {
         }
         if lights_moved {
             self.restart_accumulation();
+            self.scene_moved = true;
             ctx.checked("moving the lights", || -> Result<(), RenderError> {
                 self.gpu_scene.update_lights(&ctx, &self.posed.scene.lights)?;
                 self.frame.update_shadow_views(&ctx, &self.gpu_scene);
@@ -585,6 +594,23 @@ impl Renderer {
             .map(|(next, now)| if next == now { Mat4::IDENTITY } else { *next * now.inverse() })
             .collect();
         Some(NextPose { time_step: step, mesh_motion, lights: pose.lights })
+    }
+
+    /// Whether `next` moves anything.
+    fn predicts_change(&self, next: &NextPose) -> bool {
+        next.mesh_motion.iter().any(|m| *m != Mat4::IDENTITY) || next.lights != self.posed.scene.lights
+    }
+
+    /// Whether the frame about to be rendered shows the pose the last one predicted: the predicted
+    /// change came about over a time step of the predicted length, or nothing was predicted to change
+    /// and nothing moved. A jump in time, a pause after a predicted move, or a move nobody predicted
+    /// (a scrubbed time line, an edited light) is not. Frame times jitter in the viewer, whose step is
+    /// the last frame's, so a step between half and twice the predicted one counts as the predicted.
+    fn prediction_held(&self, view: &FrameView) -> bool {
+        match self.predicted_change_step {
+            Some(step) => (0.5 * step..=2.0 * step).contains(&view.delta_time),
+            None => !self.scene_moved,
+        }
     }
 
     /// Validates and applies new technique parameters (all of them: unnamed ones take their defaults).
@@ -754,8 +780,11 @@ impl Renderer {
                 frame: &self.frame,
                 view,
                 next: next.as_ref(),
+                prediction_held: self.prediction_held(&view),
             };
             self.technique.render_frame(&fc, &mut self.profiler)?;
+            self.predicted_change_step =
+                next.as_ref().filter(|n| self.predicts_change(n)).map(|n| n.time_step);
             self.profiler.end_frame(&ctx)?;
             Ok(())
         })??;
@@ -770,6 +799,7 @@ impl Renderer {
         self.previous_view_proj = Some(view.view_proj);
         self.previous_mesh_transforms = Some(self.posed.mesh_transforms.clone());
         self.previous_time = Some(self.time);
+        self.scene_moved = false;
         self.frame_counter = self.frame_counter.wrapping_add(1);
         self.sample_index += 1;
         self.history_valid = true;

@@ -105,3 +105,44 @@ fn records_survive_a_camera_move_and_not_a_light_move() {
     assert!(after_move >= before, "{before} → {after_move}");
     assert!(after_light < after_move, "{after_move} → {after_light}");
 }
+
+/// `radiance-cache-temporal` keeps its records over a light move it predicted (a time line advanced
+/// by the announced step) and starts again when the pose is not the predicted one: a pause after a
+/// predicted move, a jump in time.
+#[test]
+fn the_temporal_cache_keeps_records_over_predicted_moves_and_restarts_on_others() {
+    let ctx = ctx();
+    let scene =
+        rtgi::scene::builtin::build("cornell-spot", &[("animate".into(), "spot".into())]).expect("scene");
+    let settings = RendererSettings {
+        technique: "radiance-cache-temporal".into(),
+        technique_settings: vec![("hemisphere_samples".into(), "16".into())],
+        width: 32,
+        height: 32,
+        timing: TimingMode::Frame,
+    };
+    let mut r = Renderer::new(&ctx, scene, &settings).expect("renderer");
+    let step = 1.0 / 30.0;
+    r.set_time_step(step).expect("step");
+    let frame_at = |r: &mut Renderer, t: f32| -> (f64, f64) {
+        r.set_time(t).expect("time");
+        r.step().expect("frame");
+        let c = r.stats().expect("stats").counters;
+        (c["cache_restarts"], c["records_created"])
+    };
+    let (restarts, created) = frame_at(&mut r, 0.3);
+    assert_eq!(restarts, 0.0, "the first frame");
+    let (mut last_created, mut t) = (created, 0.3);
+    for _ in 0..3 {
+        t += step;
+        let (restarts, created) = frame_at(&mut r, t);
+        assert_eq!(restarts, 0.0, "a predicted move at {t}");
+        // Kept records: the total only grows.
+        assert!(created >= last_created, "{last_created} → {created}");
+        last_created = created;
+    }
+    assert!(last_created > 10.0, "{last_created} records");
+    assert_eq!(frame_at(&mut r, t).0, 1.0, "a pause after a predicted move");
+    assert_eq!(frame_at(&mut r, t + step).0, 1.0, "the move after the pause was predicted again");
+    assert_eq!(frame_at(&mut r, 0.9).0, 2.0, "a jump in time");
+}

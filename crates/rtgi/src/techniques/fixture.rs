@@ -75,6 +75,7 @@ impl Fixture {
                 frame: &self.frame,
                 view,
                 next: None,
+                prediction_held: true,
             };
             profiler.begin_frame(&self.ctx);
             technique.render_frame(&fc, &mut profiler).expect("frame");

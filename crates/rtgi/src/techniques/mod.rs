@@ -63,6 +63,11 @@ pub struct FrameContext<'a> {
     /// The scene one time step ahead, for techniques that predict the next frame
     /// ([`Technique::predicts_next_frame`]); `None` when nothing is animated or the step is unknown.
     pub next: Option<&'a NextPose>,
+    /// Whether this frame shows the pose the last frame's `next` predicted (true when nothing was
+    /// predicted to change and nothing moved). A technique whose history was interpolated towards its
+    /// prediction must not carry it over when this is false: the time jumped or stalled, or something
+    /// moved that nobody predicted.
+    pub prediction_held: bool,
 }
 
 /// The animated scene one time step after the frame being rendered: what a technique that predicts
@@ -81,7 +86,7 @@ pub struct NextPose {
 impl<'a> FrameContext<'a> {
     /// The first frame of a still image, with the camera the frame resources were created with.
     pub fn still(ctx: &'a GpuContext, gpu_scene: &'a GpuScene, frame: &'a FrameResources) -> Self {
-        FrameContext { ctx, gpu_scene, frame, view: frame.view, next: None }
+        FrameContext { ctx, gpu_scene, frame, view: frame.view, next: None, prediction_held: true }
     }
 
     /// Accumulated samples before this frame: 0 on the first frame after any change.

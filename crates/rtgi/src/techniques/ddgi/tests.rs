@@ -201,7 +201,14 @@ fn frame_context(f: &crate::techniques::fixture::Fixture, frame: u32) -> FrameCo
     let mut view = f.frame.view;
     view.frame_counter = frame;
     view.sample_index = frame;
-    FrameContext { ctx: &f.ctx, gpu_scene: &f.gpu_scene, frame: &f.frame, view, next: None }
+    FrameContext {
+        ctx: &f.ctx,
+        gpu_scene: &f.gpu_scene,
+        frame: &f.frame,
+        view,
+        next: None,
+        prediction_held: true,
+    }
 }
 
 /// Fills the probe rays with radiance `l` (all hits at distance 1) and runs one update.

@@ -113,7 +113,10 @@ struct CacheState {
     refreshed_this_frame: u32,
     refreshed_total: u32,
     deleted_total: u32,
-    _pad: vec2u,
+    // Miss-detection rounds since the cache was last cleared: placement draws its tie-breaks and
+    // budget rotation from it, so a cache started at any frame places the same records.
+    rounds_total: u32,
+    _pad: u32,
 }
 
 // Weights above this are clamped (the weight is infinite at the record itself).

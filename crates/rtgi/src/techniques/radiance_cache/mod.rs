@@ -326,7 +326,8 @@ pub struct CacheState {
     pub refreshed_this_frame: u32,
     pub refreshed_total: u32,
     pub deleted_total: u32,
-    pub _pad: [u32; 2],
+    pub rounds_total: u32,
+    pub _pad: u32,
 }
 
 /// The stratification of `samples` hemisphere rays: (M, N) cells in θ and φ with N ≈ πM, as Ward &
@@ -426,6 +427,9 @@ pub(crate) struct RadianceCache {
     iterations: u32,
     bin_tiles: [u32; 2],
     clear_pending: bool,
+    /// Frames rendered since the cache was last cleared, and clears of a cache that held records.
+    frames_since_clear: u32,
+    restarts: u32,
     width: u32,
     height: u32,
 }
@@ -761,6 +765,8 @@ impl RadianceCache {
             iterations: p.int("iterations") as u32,
             bin_tiles,
             clear_pending: false,
+            frames_since_clear: 0,
+            restarts: 0,
             width,
             height,
         })
@@ -906,13 +912,27 @@ impl RadianceCache {
 
 impl Technique for RadianceCache {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        // A temporal cache whose records were interpolated towards a pose that did not come starts
+        // again, as the per-frame cache does on every change.
+        if self.temporal.is_some() && !fc.prediction_held {
+            self.clear_pending = true;
+        }
         // Per frame: splat from the first record, first round, nothing created yet; the count and the
         // totals stay unless the cache is cleared.
         let fresh = CacheState::zeroed();
         let bytes = bytemuck::bytes_of(&fresh);
         let per_frame =
             std::mem::offset_of!(CacheState, splat_begin)..std::mem::offset_of!(CacheState, missing_tiles);
-        let written = if std::mem::take(&mut self.clear_pending) { 0..bytes.len() } else { per_frame };
+        let written = if std::mem::take(&mut self.clear_pending) {
+            if self.frames_since_clear > 0 {
+                self.restarts += 1;
+            }
+            self.frames_since_clear = 0;
+            0..bytes.len()
+        } else {
+            per_frame
+        };
+        self.frames_since_clear += 1;
         fc.ctx.queue.write_buffer(&self.state, written.start as u64, &bytes[written]);
         if let Some(tables) = self.brdf_tables.as_mut() {
             tables.build_once(fc, profiler)?;
@@ -957,6 +977,7 @@ impl Technique for RadianceCache {
             ("direct_bytes_per_pixel".to_string(), 16.0),
             ("output_bytes_per_pixel".to_string(), 16.0),
             ("pixels".to_string(), pixels),
+            ("cache_restarts".to_string(), f64::from(self.restarts)),
         ]);
         if let Some(ms) = measured.pass_mean_ms("record computation") {
             c.insert("record_computation_ms_per_round".into(), ms);
@@ -981,7 +1002,8 @@ impl Technique for RadianceCache {
     }
 
     // Records hold light that no longer holds after any change: `radiance-cache` clears the cache
-    // and refills it; the temporal cache keeps its records, which age out by their lifespans.
+    // and refills it; the temporal cache keeps its records over a change it predicted (they age out
+    // by their lifespans) and clears them after one it did not (`FrameContext::prediction_held`).
     fn scene_changed(
         &mut self,
         _: &GpuContext,

@@ -40,7 +40,7 @@ fn detect_misses(@builtin(global_invocation_id) id: vec3u) {
     let tile = id.xy / size;
     let t = tile.x + tile.y * candidate_tiles_x();
     let local = (id.x % size) + (id.y % size) * size;
-    let scramble = hash3(t, frame.frame_counter, SEED) & 0xfffu;
+    let scramble = hash3(t, state.rounds_total, SEED) & 0xfffu;
     let level = u32(clamp(weight / accuracy, 0.0, 1.0) * 1048575.0);
     atomicMax(&candidates[t], ~((level << 12u) | (local ^ scramble)));
 }
@@ -57,14 +57,14 @@ fn picked_pixel(t: u32) -> u32 {
         return NO_PIXEL;
     }
     let size = candidate_tile();
-    let scramble = hash3(t, frame.frame_counter, SEED) & 0xfffu;
+    let scramble = hash3(t, state.rounds_total, SEED) & 0xfffu;
     let local = ((~key) & 0xfffu) ^ scramble;
     let tile = vec2u(t % candidate_tiles_x(), t / candidate_tiles_x());
     let pixel = tile * size + vec2u(local % size, local / size);
     return pixel.x | (pixel.y << 16u);
 }
 
-// One workgroup: every thread counts the picks of a contiguous run of tiles (starting at a per-frame
+// One workgroup: every thread counts the picks of a contiguous run of tiles (starting at a per-round
 // rotation, so that a budget cut does not always favour the top of the frame), a prefix sum over the
 // threads gives each run its first slot, and the runs write their pixels in order. Then thread 0
 // reserves the slots against the frame's budget and the capacity, and writes the record pass's
@@ -73,7 +73,7 @@ fn picked_pixel(t: u32) -> u32 {
 fn compact(@builtin(local_invocation_index) thread: u32) {
     let tiles = candidate_tile_count();
     let run = (tiles + COMPACT_THREADS - 1u) / COMPACT_THREADS;
-    let rotation = hash2(frame.frame_counter, SEED) % tiles;
+    let rotation = hash2(state.rounds_total, SEED) % tiles;
     let first = thread * run;
     let last = min(first + run, tiles);
     var picks = 0u;
@@ -113,6 +113,7 @@ fn compact(@builtin(local_invocation_index) thread: u32) {
         state.created_this_frame += slots;
         state.created_total += slots;
         state.iteration += 1u;
+        state.rounds_total += 1u;
         record_dispatch = vec3u(slots, 1u, 1u);
     }
 }

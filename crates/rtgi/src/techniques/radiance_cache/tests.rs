@@ -427,7 +427,14 @@ fn temporal_frame(fx: &mut Fixture, cache: &mut RadianceCache, k: u32, step: f32
     view.sample_index = k;
     view.time = k as f32 * step;
     fx.frame.set_view(&fx.ctx, &view, 0);
-    let fc = FrameContext { ctx: &fx.ctx, gpu_scene: &fx.gpu_scene, frame: &fx.frame, view, next };
+    let fc = FrameContext {
+        ctx: &fx.ctx,
+        gpu_scene: &fx.gpu_scene,
+        frame: &fx.frame,
+        view,
+        next,
+        prediction_held: true,
+    };
     cache.render_frame(&fc, &mut Profiler::new(&fx.ctx, TimingMode::Passes)).expect("frame");
 }
 
