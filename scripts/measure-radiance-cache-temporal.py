@@ -9,7 +9,8 @@ For each animation (a box flying through `cornell`; the spot of `cornell-spot` s
 at 30 fps with the one-bounce path-traced reference (`max_bounces=1`, the cache's one bounce, --spp samples per
 frame) and with `radiance-cache` (a new cache every frame: the thesis's per-frame recomputation) and
 `radiance-cache-temporal` (records kept where they are, each living a_t / its predicted change frames, at most
-max_lifespan), then `rtgi compare`s each sequence with the reference frame by frame. Flicker is the mean FLIP
+max_lifespan), then `rtgi compare`s each sequence with the reference frame by frame (the mean, and every
+fifth frame as the thesis's Fig. 5.10 of accuracy over time). Flicker is the mean FLIP
 between consecutive frames over the reference's (the motion alone; the reference's noise is in it too). GPU
 time is the mean per frame after the first (the first builds the whole cache in both). Options: --size WxH,
 --frames N, --spp N, --doc NAME, --allow-dirty.
@@ -131,6 +132,24 @@ def main():
                 life = "1"
             lines.append(f"| {label} | {seq['mean']['flip']:.4f} | {seq['mean']['rel_mse']:.4f} | {t:.4f} | "
                          f"{t / ref_flip:.2f} | {ms:.1f} | {base_ms / ms:.2f}× | {computed} | {alive} | {life} |")
+        lines.append("")
+        restarted = [(label, stats["counters"]["cache_restarts"]) for label, stats, _ in rows
+                     if "records_refreshed" in stats["counters"] and stats["counters"].get("cache_restarts", 0)]
+        lines += ["Temporal caches restarted (the pose was not the predicted one): "
+                  + (", ".join(f"{label} {n:.0f}×" for label, n in restarted) if restarted else "none") + ".", ""]
+        # The thesis's Fig. 5.10 (accuracy over time) as numbers: FLIP of every fifth frame and the last.
+        picks = sorted(set(range(0, args.frames, 5)) | {args.frames - 1})
+        lines += [
+            "FLIP against the reference frame by frame (the thesis's Fig. 5.10, accuracy over time):", "",
+            "| variant | " + " | ".join(f"frame {k}" for k in picks) + " |",
+            "|---|" + "---|" * len(picks),
+        ]
+        for label, _, seq in rows:
+            flips = {f["index"]: f["flip"] for f in seq["frames"]}
+            by_order = [f["flip"] for f in seq["frames"]]
+            # Sequence indices are the frame numbers of the files; fall back on their order.
+            values = [flips.get(k, by_order[k] if k < len(by_order) else float("nan")) for k in picks]
+            lines.append(f"| {label} | " + " | ".join(f"{v:.4f}" for v in values) + " |")
         lines.append("")
     doc = DOC / f"{args.doc}.md"
     doc.write_text("\n".join(lines) + "\n")
