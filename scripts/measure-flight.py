@@ -51,11 +51,7 @@ TECHNIQUES = [
 
 def render(rtgi, name, technique, settings, size, frames, extra=()):
     """Renders the flight (or `extra`'s variant of it) into OUT/name_%04d.exr; returns its stats."""
-    stats = OUT / f"{name}.json"
-    sets = [x for k, v in settings.items() for x in ("--set", f"{k}={v}")]
-    m.run([rtgi, "render", "--scene", SCENE, "--technique", technique, "--size", size, "--frames", frames,
-           "--fps", 30, *sets, *extra, "--out", OUT / f"{name}_%04d.exr", "--stats", stats])
-    return json.loads(stats.read_text())
+    return m.render_sequence(rtgi, OUT, SCENE, name, technique, settings, size, frames, extra)
 
 
 def main():

@@ -25,7 +25,6 @@ sys.dont_write_bytecode = True
 import measure_common as m  # noqa: E402
 
 OUT = m.scratch("radiance-cache-temporal")
-DOC = m.ROOT / "docs/measurements"
 SCENES = [
     ("moving box", "cornell:animate=box"),
     ("moving light", "cornell-spot:animate=spot"),
@@ -46,11 +45,7 @@ TECHNIQUES = [
 
 def render(rtgi, scene, name, technique, settings, size, frames):
     """Renders the animation into OUT/name_%04d.exr; returns its stats."""
-    stats = OUT / f"{name}.json"
-    sets = [x for k, v in settings.items() for x in ("--set", f"{k}={v}")]
-    m.run([rtgi, "render", "--scene", scene, "--technique", technique, "--size", size, "--frames", frames,
-           "--fps", 30, *sets, "--out", OUT / f"{name}_%04d.exr", "--stats", stats])
-    return json.loads(stats.read_text())
+    return m.render_sequence(rtgi, OUT, scene, name, technique, settings, size, frames)
 
 
 def main():
@@ -93,8 +88,7 @@ def main():
 
     end_load = m.load_average()
     cpu = adapter.get("device_type") == "Cpu"
-    command = "python3 scripts/measure-radiance-cache-temporal.py" + "".join(
-        f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
+    command = m.command_line("measure-radiance-cache-temporal.py")
     width, height = args.size.split("x")
     lines = [
         f"# Temporal radiance caching against per-frame recomputation (issue 13 item 3), {width}×{height}", "",
@@ -151,9 +145,7 @@ def main():
             values = [flips.get(k, by_order[k] if k < len(by_order) else float("nan")) for k in picks]
             lines.append(f"| {label} | " + " | ".join(f"{v:.4f}" for v in values) + " |")
         lines.append("")
-    doc = DOC / f"{args.doc}.md"
-    doc.write_text("\n".join(lines) + "\n")
-    print(doc.read_text())
+    m.write_doc("measure-radiance-cache-temporal.py", args.doc, lines)
 
 
 if __name__ == "__main__":

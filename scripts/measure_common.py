@@ -255,6 +255,16 @@ def load_text(start, end):
                                     "than on an idle machine." if max(start, end) > cores + 0.5 else "."))
 
 
+def render_sequence(rtgi, out, scene, name, technique, settings, size, frames, extra=()):
+    """Renders FRAMES frames of SCENE at 30 fps into OUT/name_%04d.exr (`settings` as --set, `extra` added to
+    the command line); returns its stats."""
+    stats = out / f"{name}.json"
+    sets = [x for k, v in settings.items() for x in ("--set", f"{k}={v}")]
+    run([rtgi, "render", "--scene", scene, "--technique", technique, "--size", size, "--frames", frames,
+         "--fps", 30, *sets, *extra, "--out", out / f"{name}_%04d.exr", "--stats", stats])
+    return json.loads(stats.read_text())
+
+
 def write_doc(script, name, lines):
     """Writes docs/measurements/NAME.md from `lines` (a blank line appended) and prints it."""
     text = "\n".join(lines + [""])
