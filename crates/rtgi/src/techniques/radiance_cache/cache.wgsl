@@ -116,7 +116,8 @@ struct CacheState {
     // Miss-detection rounds since the cache was last cleared: placement draws its tie-breaks and
     // budget rotation from it, so a cache started at any frame places the same records.
     rounds_total: u32,
-    _pad: u32,
+    // Temporal mode: deleted records removed by compaction, in all.
+    compacted_total: u32,
 }
 
 // Weights above this are clamped (the weight is infinite at the record itself).

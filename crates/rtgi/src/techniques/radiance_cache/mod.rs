@@ -31,8 +31,9 @@
 //! onto the record's hemisphere: [`super::NextPose`] from the renderer), the record's light is interpolated
 //! towards the prediction over its life (extrapolated temporal gradients), and it lives a_t / (its
 //! predicted relative change) frames, at most `max_lifespan`; then `cache aging` recomputes it where
-//! it is if it served a pixel the frame before, or deletes it (the thesis's occlusion query). Deleted
-//! slots are not reused: the capacity bounds the records ever placed since the cache was created.
+//! it is if it served a pixel the frame before, or deletes it (the thesis's occlusion query). When the
+//! deleted records reach a quarter of the cache, or it could not take a frame's budget of new records,
+//! the live ones are moved down over them (`cache compaction`), so a long animation does not fill it.
 //! The thesis's interpolated temporal gradients need the records of the future (two passes over a
 //! predefined animation) and are not built.
 
@@ -327,7 +328,7 @@ pub struct CacheState {
     pub refreshed_total: u32,
     pub deleted_total: u32,
     pub rounds_total: u32,
-    pub _pad: u32,
+    pub compacted_total: u32,
 }
 
 /// The stratification of `samples` hemisphere rays: (M, N) cells in θ and φ with N ≈ πM, as Ward &
@@ -443,6 +444,7 @@ struct Temporal {
     motion_written: Vec<Mat4>,
     counters: wgpu::Buffer,
     age_pipeline: wgpu::ComputePipeline,
+    compaction_pipeline: wgpu::ComputePipeline,
     refresh_dispatch_pipeline: wgpu::ComputePipeline,
     refresh_pipeline: wgpu::ComputePipeline,
 }
@@ -717,6 +719,12 @@ impl RadianceCache {
                     motion_written: vec![Mat4::IDENTITY; mesh_count],
                     counters: temporal_counters,
                     age_pipeline: pipeline("radiance cache aging", aging, "age_records", &groups)?,
+                    compaction_pipeline: pipeline(
+                        "radiance cache compaction of deleted records",
+                        aging,
+                        "compact_records",
+                        &groups,
+                    )?,
                     refresh_dispatch_pipeline: pipeline(
                         "radiance cache refresh dispatch",
                         aging,
@@ -850,6 +858,10 @@ impl RadianceCache {
         }
         let temporal = self.temporal.as_ref().expect("temporal mode");
         let groups = self.groups(fc);
+        // Before aging: the refresh list it writes holds record indices.
+        profiler.pass(fc.ctx, "cache compaction", |encoder| {
+            compute::dispatch(encoder, "cache compaction", &temporal.compaction_pipeline, &groups, [1, 1, 1]);
+        })?;
         profiler.pass(fc.ctx, "cache aging", |encoder| {
             encoder.clear_buffer(&temporal.counters, 0, None);
             compute::dispatch(
@@ -987,7 +999,8 @@ impl Technique for RadianceCache {
             c.insert("records_refreshed".into(), f64::from(s.refreshed_total));
             c.insert("records_created".into(), f64::from(s.created_total));
             c.insert("records_deleted".into(), f64::from(s.deleted_total));
-            c.insert("records_live".into(), f64::from(s.count - s.deleted_total));
+            c.insert("records_live".into(), f64::from(s.count - (s.deleted_total - s.compacted_total)));
+            c.insert("records_compacted".into(), f64::from(s.compacted_total));
             let records = self.read_records(ctx, s.count)?;
             let live: Vec<&Record> = records.iter().filter(|r| r.normal[3] > -0.5).collect();
             if !live.is_empty() {

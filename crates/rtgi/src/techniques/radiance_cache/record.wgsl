@@ -112,6 +112,13 @@ struct RecordSurface {
     footprint: f32,
 }
 
+// The random numbers of a record's rays follow its position, not its slot: a record recomputed where
+// it is draws the same rays (no change where nothing changed), wherever compaction moved it.
+fn record_seed(rs: RecordSurface) -> u32 {
+    let p = bitcast<vec3u>(rs.position);
+    return hash3(p.x, p.y, p.z);
+}
+
 // The cell of a direction in the record's frame (z > 0).
 fn cell_of(local: vec3f) -> u32 {
     let sin2 = max(0.0, 1.0 - local.z * local.z);
@@ -128,7 +135,7 @@ fn cell_of(local: vec3f) -> u32 {
 // in temporal mode also predicts each hit and lands it in the z-buffer.
 fn trace_cells(k: u32, rs: RecordSurface, thread: u32) {
     for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
-        var rng = rng_new(vec2u(k, cell), 0u, hash2(SEED, 0x72637264u));
+        var rng = rng_new(vec2u(record_seed(rs), cell), 0u, hash2(SEED, 0x72637264u));
         let dir = local_to_world(cell_direction(cell, &rng), rs.normal);
         let hit = trace_closest(Ray(rs.origin, dir), 0.0, FLT_MAX);
         var radiance = vec3f(0.0);

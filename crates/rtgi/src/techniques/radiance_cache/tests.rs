@@ -54,6 +54,8 @@ fn shaders_validate_and_mirror_the_host_layouts() {
                 ("refreshed_this_frame", offset_of!(CacheState, refreshed_this_frame)),
                 ("refreshed_total", offset_of!(CacheState, refreshed_total)),
                 ("deleted_total", offset_of!(CacheState, deleted_total)),
+                ("rounds_total", offset_of!(CacheState, rounds_total)),
+                ("compacted_total", offset_of!(CacheState, compacted_total)),
             ],
         );
         assert_layout(
@@ -463,6 +465,85 @@ fn a_static_scene_reuses_records_for_max_lifespan_and_refreshes_them_in_place() 
         assert_eq!(old.position_radius[..3], new.position_radius[..3], "records stay where they are");
         assert_eq!(old.normal, new.normal);
         assert_eq!(new.translation[0][3], 3.0, "computed again at frame 3");
+    }
+    // A record's rays follow its position: recomputed where nothing changed, it does not pop. Not to
+    // the bit: a new record's rays leave from its G-buffer surface's offset origin, a refreshed one's
+    // from its stored position and geometric normal. Measured on lavapipe: 4.1e-4 at most; other rays
+    // (32 of them) would differ by ~10 %.
+    let change = placed
+        .iter()
+        .zip(&refreshed)
+        .flat_map(|(old, new)| {
+            (0..3).map(|c| (old.irradiance[c] - new.irradiance[c]).abs() / old.irradiance[c].max(1e-6))
+        })
+        .fold(0.0f32, f32::max);
+    eprintln!("largest relative change of a refreshed record: {change:e}");
+    assert!(change < 8e-4, "{change}");
+}
+
+/// Compaction removes deleted records' slots: with half the records deleted, the next frame starts by
+/// moving the live ones down, in order, with their predictions and HSH coefficients (the glossy back
+/// wall has radiance records).
+#[test]
+fn compaction_moves_the_live_records_down_in_order() {
+    let mut fx = fixture_with("cornell", &[("back_wall", "glossy")], 48, 48);
+    let mut cache = temporal_cache(&fx, &[("hemisphere_samples", "32"), ("hsh_order", "3")]);
+    temporal_frame(&mut fx, &mut cache, 0, 0.0, None);
+    let count = cache.read_state(&fx.ctx).expect("state").count;
+    let size = size_of::<Record>() as u64;
+    let capacity = u64::from(cache.capacity);
+    let ctx = fx.ctx.clone();
+    let read = |buffer: &wgpu::Buffer, offset: u64, bytes: u64| {
+        readback::read_buffer(&ctx, buffer, offset, bytes).expect("readback")
+    };
+    let planes: Vec<Vec<Record>> = (0..2)
+        .map(|plane| {
+            bytemuck::cast_slice(&read(&cache.records, plane * capacity * size, u64::from(count) * size))
+                .to_vec()
+        })
+        .collect();
+    let radiance: Vec<f32> = bytemuck::cast_slice(&read(&cache.radiance, 0, cache.radiance.size())).to_vec();
+    let radiance_records = planes[0].iter().filter(|r| r.normal[3] > 0.5).count();
+    assert!(count > 40 && radiance_records > 4, "{count} records, {radiance_records} of radiance");
+
+    // Delete every other record, as aging does.
+    let deleted: Vec<u32> = (0..count).filter(|k| k % 2 == 1).collect();
+    for &k in &deleted {
+        let mut r = planes[0][k as usize];
+        r.normal[3] = -1.0;
+        fx.ctx.queue.write_buffer(&cache.records, u64::from(k) * size, bytemuck::bytes_of(&r));
+    }
+    let deleted_total = deleted.len() as u32;
+    fx.ctx.queue.write_buffer(
+        &cache.state,
+        offset_of!(CacheState, deleted_total) as u64,
+        bytemuck::bytes_of(&deleted_total),
+    );
+    temporal_frame(&mut fx, &mut cache, 1, 0.0, None);
+    let state = cache.read_state(&fx.ctx).expect("state");
+    assert_eq!(state.compacted_total, deleted_total, "{state:?}");
+    let live: Vec<u32> = (0..count).filter(|k| k % 2 == 0).collect();
+    assert!(state.count >= live.len() as u32, "{state:?}");
+    let moved: Vec<Vec<Record>> = (0..2)
+        .map(|plane| {
+            bytemuck::cast_slice(&read(&cache.records, plane * capacity * size, live.len() as u64 * size))
+                .to_vec()
+        })
+        .collect();
+    let after: Vec<f32> = bytemuck::cast_slice(&read(&cache.radiance, 0, cache.radiance.size())).to_vec();
+    let coefficients = 9 * 9; // order 3: 9 coefficients of 9 floats
+    let block = |plane: u64, k: u64| {
+        let first = ((plane * capacity + k) * coefficients) as usize;
+        first..first + coefficients as usize
+    };
+    for (j, &k) in live.iter().enumerate() {
+        for plane in 0..2 {
+            assert_eq!(moved[plane][j], planes[plane][k as usize], "record {k} → {j}, plane {plane}");
+            if planes[0][k as usize].normal[3] > 0.5 {
+                let (from, to) = (block(plane as u64, u64::from(k)), block(plane as u64, j as u64));
+                assert_eq!(after[to], radiance[from], "coefficients of record {k} → {j}, plane {plane}");
+            }
+        }
     }
 }
 
