@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Prints docs/measurements/radiance-cache-lavapipe.md: radiance-cache against one-bounce path tracing
-(issue 13, item 2).
+(issue 13, item 2); with `--suite benches/photon-irradiance-cache.toml` the photon-mapped cache against
+full-GI path tracing (item 4).
 
     cargo build --release -p rtgi-cli && python3 scripts/measure-radiance-cache.py   # about 15 min on lavapipe
     python3 scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu   # a GPU
@@ -18,7 +19,8 @@ sys.dont_write_bytecode = True
 import measure_common as m  # noqa: E402
 
 SCRIPT = "measure-radiance-cache.py"
-CACHE_PASSES = ("cache splat", "cache miss detection", "record computation", "cache shading")
+CACHE_PASSES = ("photon tracing", "photon grid", "cache splat", "cache miss detection", "record computation",
+                "cache shading")
 
 
 def path_ms_at_flip(cells, flip):
@@ -36,14 +38,20 @@ def main():
     run = m.run_documented_suite(SCRIPT, "radiance-cache", "benches/radiance-cache.toml",
                                  "radiance-cache-lavapipe", __doc__.splitlines()[0])
     suite, cells, cpu, ref_spp = run.suite, run.cells, run.cpu, run.ref_spp
+    one_bounce = suite.get("reference", {}).get("set", {}).get("max_bounces") == 1
+    reference = "the one-bounce (`max_bounces=1`)" if one_bounce else "the full-GI (all bounces)"
+    caches = sorted({c["technique"] for c in cells if c["technique"] != "path"})
     lines = [
-        f"# radiance-cache against one-bounce path tracing ({run.width}×{run.height})", "",
+        f"# {m.join_and(caches)} against {'one-bounce' if one_bounce else 'full-GI'} path tracing "
+        f"({run.width}×{run.height})", "",
         run.header,
         "",
         f"Each cell: a fresh renderer, one warm-up frame (which fills the cache: 4 rounds of miss detection, "
         f"up to 4096 new records), {suite.get('frames', 8)} timed frames of the same view, then "
-        f"{suite.get('error_frames', 4)} compared with the one-bounce (`max_bounces=1`) path-traced "
-        f"reference (spp: {ref_spp}). ms/frame: the whole frame's GPU time, so for the cache the cost of a "
+        f"{suite.get('error_frames', 4)} compared with {reference} path-traced "
+        f"reference (spp: {ref_spp}). Photon cells: the photon map is built in the warm-up frame with the "
+        "cache, so the timed frames do not include it (its passes are in the table below only where a "
+        "frame built it). ms/frame: the whole frame's GPU time, so for the cache the cost of a "
         "static view with a complete cache (the G-buffer, direct light, a full splat, the rounds that find "
         "no miss, shading). \"path ms at this FLIP\": the time per frame path needs for the cell's FLIP, "
         "interpolated in log time between its spp cells; the speedup is that over the cell's time (the "
@@ -55,9 +63,10 @@ def main():
         sc = [c for c in cells if c["scene"] == scene]
         lines += [f"## {scene}", "",
                   "| cell | ms/frame | FLIP | relMSE | path's FLIP at this time | path ms at this FLIP | speedup "
-                  "| records | on the front |", "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+                  "| records | photons | on the front |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
         for c in sc:
             records = c["counters"].get("records")
+            photons = c["counters"].get("photons")
             if c["technique"] == "path":
                 at, speedup = "–", "–"
             else:
@@ -67,12 +76,13 @@ def main():
             lines.append(f"| {m.label(c)} | {c['frame_ms']:.1f} | {c['error']['flip']:.4f} | "
                          f"{c['error']['rel_mse']:.5f} | {m.path_flip_text(sc, c)} | {at} | {speedup} | "
                          f"{f'{records:.0f}' if records is not None else '–'} | "
+                         f"{f'{photons:.0f}' if photons is not None else '–'} | "
                          f"{'yes' if m.on_front(sc, c) else 'no'} |")
         lines += ["", "Passes of the cache cells (ms per frame, timed frames):", "",
                   "| cell | " + " | ".join(CACHE_PASSES) + " | other passes |",
                   "|---|" + "---:|" * (len(CACHE_PASSES) + 1)]
         for c in sc:
-            if c["technique"] != "radiance-cache":
+            if c["technique"] == "path":
                 continue
             own = [m.pass_ms(c, name) or 0.0 for name in CACHE_PASSES]
             rest = ", ".join(f"{p['name']} {p['ms_per_frame']:.2f}" for p in c["passes"]

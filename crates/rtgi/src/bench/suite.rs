@@ -476,6 +476,7 @@ warmup = 5
                 "igi-cost.toml",
                 "igi.toml",
                 "lpv.toml",
+                "photon-irradiance-cache.toml",
                 "primary.toml",
                 "quick.toml",
                 "radiance-cache-glossy.toml",

@@ -14,8 +14,10 @@ pub mod env_harmonics;
 #[cfg(test)]
 pub(crate) mod fixture;
 pub mod igi;
+pub mod light_paths;
 pub mod lpv;
 pub mod path;
+pub mod photon_map;
 pub mod radiance_cache;
 pub mod rsm;
 pub mod vxgi;
@@ -246,6 +248,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         vxgi::INFO,
         radiance_cache::INFO,
         radiance_cache::TEMPORAL_INFO,
+        radiance_cache::PHOTON_INFO,
         env_harmonics::INFO,
     ]
 }

@@ -46,6 +46,10 @@ struct CacheUniforms {
 // (first triangle, mesh) of every mesh (common/mesh_of_triangle.wgsl), for the motion of a hit.
 @group(2) @binding(17) var<storage, read> mesh_starts: array<vec2u>;
 
+// `photon-irradiance-cache`: the photon map (photon_map/lookup.wgsl).
+@group(2) @binding(18) var<storage, read> photons: array<Photon>;
+@group(2) @binding(19) var<storage, read> photon_grid: array<u32>;
+
 fn predicted_light(i: u32) -> Light {
     return next_lights[i];
 }

@@ -36,6 +36,12 @@
 //! the live ones are moved down over them (`cache compaction`), so a long animation does not fill it.
 //! The thesis's interpolated temporal gradients need the records of the future (two passes over a
 //! predefined animation) and are not built.
+//!
+//! `photon-irradiance-cache` (the thesis's chapter 6, report §5) carries every diffuse bounce: a photon
+//! map (`photon_map`) is built when the cache is cleared, and each record ray's hit adds the light the
+//! photons there reflect towards the record to its direct light (Jensen's final gather, the first bounce
+//! by the record's rays, the others by photon density). The thesis instead places records at photons
+//! and takes their irradiance from the photons alone (no rays); rtgi keeps its screen-space placement.
 
 use std::collections::BTreeMap;
 
@@ -53,6 +59,7 @@ use crate::techniques::RenderError;
 use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL};
 use super::compute::{self, storage_buffer_entry, storage_texture_entry, texture_entry, uniform_entry};
 use super::direct::{DirectLighting, DirectOutput, with_direct_params};
+use super::photon_map::{PHOTON_PARAMS, PhotonMap, PhotonSettings, photon_defines};
 use super::{FrameContext, FrameNeeds, Measured, SceneChange, Technique, TechniqueInfo, TechniqueSetup};
 
 #[cfg(test)]
@@ -182,6 +189,9 @@ const TEMPORAL_PARAMS: [ParamSpec; 24] = cache_params![
     },
 ];
 
+const PHOTON_CACHE_PARAMS: [ParamSpec; 24] =
+    cache_params![PHOTON_PARAMS[0], PHOTON_PARAMS[1], PHOTON_PARAMS[2]];
+
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "radiance-cache",
     description: "irradiance caching by radiance cache splatting, records placed and computed on the GPU (one diffuse bounce)",
@@ -201,6 +211,17 @@ pub const TEMPORAL_INFO: TechniqueInfo = TechniqueInfo {
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Temporal,
     validate: validate_temporal,
+    create,
+};
+
+pub const PHOTON_INFO: TechniqueInfo = TechniqueInfo {
+    name: "photon-irradiance-cache",
+    description: "irradiance cache whose record rays gather a photon map at their hits: every diffuse bounce",
+    params: &PHOTON_CACHE_PARAMS,
+    needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
+    motion: super::Motion::Restarts,
+    validate,
     create,
 };
 
@@ -422,6 +443,9 @@ pub(crate) struct RadianceCache {
     uniforms_written: CacheUniforms,
     /// What `radiance-cache-temporal` adds (`None` for `radiance-cache`).
     temporal: Option<Temporal>,
+    /// `photon-irradiance-cache`'s photon map, and whether it needs building (after a clear).
+    photon_map: Option<PhotonMap>,
+    photons_stale: bool,
     max_lifespan: u32,
     capacity: u32,
     cells: (u32, u32),
@@ -479,10 +503,16 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
 }
 
 /// The defines every pass of the cache shares.
-fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x: u32) -> Defines {
+fn cache_defines(
+    p: &ParamValues,
+    capacity: u32,
+    cells: (u32, u32),
+    bin_tiles_x: u32,
+    photon_map: Option<&PhotonMap>,
+) -> Defines {
     let temporal = TemporalSettings::from_params(p);
-    brdf_table_shape(p)
-        .defines(Defines::new())
+    photon_defines(brdf_table_shape(p).defines(Defines::new()), photon_map)
+        .bool("PHOTONS", photon_map.is_some())
         .f32("ACCURACY", p.float("accuracy") as f32)
         .f32("GLOSSY_ACCURACY", p.float("glossy_accuracy") as f32)
         .f32("GLOSSY_ROUGHNESS", p.float("glossy_roughness") as f32)
@@ -510,7 +540,8 @@ fn cache_defines(p: &ParamValues, capacity: u32, cells: (u32, u32), bin_tiles_x:
 /// The composed source of a cache pass: the records, the cache's bindings, the BRDF table lookup, then
 /// the pass.
 fn cache_source(pass: &str) -> String {
-    format!("{CACHE_WGSL}\n{BINDINGS_WGSL}\n{LOOKUP_WGSL}\n{pass}")
+    let photons = super::photon_map::lookup_source();
+    format!("{CACHE_WGSL}\n{BINDINGS_WGSL}\n{LOOKUP_WGSL}\n{photons}\n{pass}")
 }
 
 /// The HSH BRDF tables of radiance records, at env-harmonics' defaults (its measurements show 32² texels,
@@ -620,6 +651,10 @@ impl RadianceCache {
         let direct_texture =
             compute::storage_texture(ctx, "radiance cache direct", width, height, OUTPUT_FORMAT);
         let direct = DirectLighting::new(setup, &direct_texture, DirectOutput::Accumulate)?;
+        let photon_map = PhotonSettings::from_params(p).map(|s| PhotonMap::new(setup, s)).transpose()?;
+        let no_photons =
+            storage("radiance cache no photons", size_of::<super::photon_map::GpuPhoton>() as u64);
+        let no_photon_grid = storage("radiance cache no photon grid", 8);
 
         let rw = wgpu::StorageTextureAccess::ReadWrite;
         let cache_layout = compute::layout(
@@ -644,6 +679,8 @@ impl RadianceCache {
                 storage_buffer_entry(15, true),
                 storage_buffer_entry(16, false),
                 storage_buffer_entry(17, true),
+                storage_buffer_entry(18, true),
+                storage_buffer_entry(19, true),
             ],
         );
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
@@ -672,6 +709,8 @@ impl RadianceCache {
                 next_motion.as_entire_binding(),
                 temporal_counters.as_entire_binding(),
                 mesh_starts.as_entire_binding(),
+                photon_map.as_ref().map_or(&no_photons, |m| &m.photons).as_entire_binding(),
+                photon_map.as_ref().map_or(&no_photon_grid, |m| &m.grid).as_entire_binding(),
             ],
         );
         let dispatch_layout =
@@ -683,7 +722,7 @@ impl RadianceCache {
             &[record_dispatch.as_entire_binding()],
         );
 
-        let defines = cache_defines(p, capacity, cells, bin_tiles[0]);
+        let defines = cache_defines(p, capacity, cells, bin_tiles[0], photon_map.as_ref());
         let groups = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &cache_layout];
         let pipeline = |name: &str, pass: &str, entry: &str, layouts: &[&wgpu::BindGroupLayout]| {
             compute::pipeline(
@@ -768,6 +807,8 @@ impl RadianceCache {
             uniforms_written,
             max_lifespan: TemporalSettings::from_params(p).map_or(1, |t| t.max_lifespan),
             temporal,
+            photon_map,
+            photons_stale: true,
             capacity,
             cells,
             iterations: p.int("iterations") as u32,
@@ -950,6 +991,11 @@ impl Technique for RadianceCache {
             tables.build_once(fc, profiler)?;
         }
         self.direct.render(fc, profiler)?;
+        if let Some(map) = &self.photon_map
+            && std::mem::take(&mut self.photons_stale)
+        {
+            map.build(fc, profiler)?;
+        }
         if self.temporal.is_some() {
             self.age_and_refresh(fc, profiler)?;
         }
@@ -991,6 +1037,9 @@ impl Technique for RadianceCache {
             ("pixels".to_string(), pixels),
             ("cache_restarts".to_string(), f64::from(self.restarts)),
         ]);
+        if let Some(map) = &self.photon_map {
+            c.extend(map.counters(ctx)?);
+        }
         if let Some(ms) = measured.pass_mean_ms("record computation") {
             c.insert("record_computation_ms_per_round".into(), ms);
         }
@@ -1019,12 +1068,13 @@ impl Technique for RadianceCache {
     // by their lifespans) and clears them after one it did not (`FrameContext::prediction_held`).
     fn scene_changed(
         &mut self,
-        _: &GpuContext,
-        _: &crate::gpu::GpuScene,
+        ctx: &GpuContext,
+        gpu_scene: &crate::gpu::GpuScene,
         _: SceneChange,
     ) -> Result<bool, RenderError> {
         self.clear_pending = self.temporal.is_none();
-        Ok(true)
+        self.photons_stale = true;
+        Ok(self.photon_map.as_mut().is_none_or(|m| m.update_entries(ctx, gpu_scene)))
     }
 
     fn predicts_next_frame(&self) -> bool {
@@ -1032,6 +1082,9 @@ impl Technique for RadianceCache {
     }
 
     fn warnings(&self) -> Vec<String> {
+        if self.photon_map.is_some() {
+            return vec!["photon-irradiance-cache: specular lobes outside [glossy_min_roughness, glossy_roughness), and dielectric specular layers of diffuse-classed surfaces, get no indirect light; photon density is estimated over discs (biased low in corners)".into()];
+        }
         vec!["radiance-cache: records carry one bounce; specular lobes outside [glossy_min_roughness, glossy_roughness), and dielectric specular layers of diffuse-classed surfaces, get no indirect light".into()]
     }
 }

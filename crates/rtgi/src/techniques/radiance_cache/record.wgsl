@@ -177,6 +177,11 @@ fn trace_cells(k: u32, rs: RecordSurface, thread: u32) {
                 }
             } else if front {
                 radiance = direct_light(h, origin, &rng, 1u, 1u, true);
+                // `photon-irradiance-cache`: the light that reached the hit after bounces, from the
+                // photon map (a final gather: the photons' noise is averaged over the record's rays).
+                if PHOTONS {
+                    radiance += photon_radiance(h.position, h.normal, h.view, h.material);
+                }
             }
         } else if TEMPORAL {
             atomicMin(&next_key[cell], BACKGROUND);

@@ -13,7 +13,7 @@ use crate::techniques::fixture::{Fixture, fixture, fixture_with};
 /// The defines of a cache of 1024 records at the default parameters of `specs`.
 fn test_defines(specs: &[ParamSpec]) -> Defines {
     let defaults = ParamValues::defaults("radiance-cache", specs).expect("defaults");
-    cache_defines(&defaults, 1024, hemisphere_cells(256), 4).u32("TILE", TILE)
+    cache_defines(&defaults, 1024, hemisphere_cells(256), 4, None).u32("TILE", TILE)
 }
 
 #[test]
@@ -25,7 +25,8 @@ fn shaders_validate_and_mirror_the_host_layouts() {
         include_str!("shade.wgsl"),
         include_str!("temporal.wgsl"),
     ];
-    for (pass, specs) in passes.iter().flat_map(|p| [(p, &PARAMS[..]), (p, &TEMPORAL_PARAMS[..])]) {
+    let variants = [&PARAMS[..], &TEMPORAL_PARAMS[..], &PHOTON_CACHE_PARAMS[..]];
+    for (pass, specs) in passes.iter().flat_map(|p| variants.map(|v| (p, v))) {
         let m = validate("radiance cache", &cache_source(pass), &test_defines(specs));
         assert_layout(
             &m,
@@ -85,9 +86,14 @@ fn hemisphere_cells_keep_n_near_pi_m() {
 
 /// A cache on `fx` with `settings`, after `frames` frames.
 fn cache_after(fx: &Fixture, settings: &[(&str, &str)], frames: u32) -> RadianceCache {
+    cache_of(fx, &INFO, settings, frames)
+}
+
+/// A cache of technique `info` on `fx` with `settings`, after `frames` frames.
+fn cache_of(fx: &Fixture, info: &TechniqueInfo, settings: &[(&str, &str)], frames: u32) -> RadianceCache {
     let settings: Vec<(String, String)> =
         settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let params = ParamValues::from_settings("radiance-cache", &PARAMS, &settings).expect("params");
+    let params = ParamValues::from_settings(info.name, info.params, &settings).expect("params");
     let mut cache = RadianceCache::new(&fx.setup(&params)).expect("radiance cache");
     let mut profiler = Profiler::new(&fx.ctx, TimingMode::Passes);
     for _ in 0..frames {
@@ -236,21 +242,26 @@ fn the_budget_bounds_new_records_per_frame() {
     assert!(three.unserved_tiles > 0, "{three:?}");
 }
 
-/// Same seed, same cache and image.
+/// Same seed, same cache and image; with a photon map too (its grid's atomics scatter photons in any
+/// order, the bucket sort puts them back in path order).
 #[test]
 fn the_cache_is_deterministic() {
     let fx = fixture("cornell", 48, 48);
-    let settings = [("hemisphere_samples", "32")];
-    let run = || {
-        let cache = cache_after(&fx, &settings, 2);
-        let state = cache.read_state(&fx.ctx).expect("state");
-        let records = cache.read_records(&fx.ctx, state.count).expect("records");
-        (records, readback::read_texture(&fx.ctx, &fx.output, 16).expect("output"))
-    };
-    let (a, b) = (run(), run());
-    assert!(!a.0.is_empty());
-    assert!(a.0 == b.0, "records differ");
-    assert!(a.1 == b.1, "images differ");
+    for (info, settings) in [
+        (&INFO, &[("hemisphere_samples", "32")][..]),
+        (&PHOTON_INFO, &[("hemisphere_samples", "32"), ("photon_paths", "16384")][..]),
+    ] {
+        let run = || {
+            let cache = cache_of(&fx, info, settings, 2);
+            let state = cache.read_state(&fx.ctx).expect("state");
+            let records = cache.read_records(&fx.ctx, state.count).expect("records");
+            (records, readback::read_texture(&fx.ctx, &fx.output, 16).expect("output"))
+        };
+        let (a, b) = (run(), run());
+        assert!(!a.0.is_empty());
+        assert!(a.0 == b.0, "{}: records differ", info.name);
+        assert!(a.1 == b.1, "{}: images differ", info.name);
+    }
 }
 
 /// The cell weights of radiance records: with cos θ in the span of the order-2 HSH, Σ_i c_i ∫_cell H_i

@@ -1,0 +1,114 @@
+// Building the photon map's hashed grid on the GPU: a counting sort of the photons by bucket. The
+// photons are the surface VPLs of light-path vertices 2 and deeper (light that has bounced at least
+// once: indirect light; rtgi computes direct light exactly), VPL slots [first, end).
+//   count_photons: photons per bucket (atomic adds into grid[0, B));
+//   scan_buckets: one workgroup turns the counts into bucket starts grid[0, B] (grid[B]: the total)
+//                 and copies them into the scatter cursors grid[B + 1, 2B + 1);
+//   scatter_photons: every photon to its bucket's next slot;
+//   sort_buckets: every bucket in VPL order, so that sums over a bucket do not depend on the atomics'
+//                 order (deterministic output).
+
+@group(2) @binding(0) var<storage, read> vpls: array<Vpl>;
+@group(2) @binding(1) var<storage, read_write> photons: array<Photon>;
+@group(2) @binding(2) var<storage, read_write> grid: array<atomic<u32>>;
+struct PhotonBuild {
+    first: u32,
+    end: u32,
+    _pad: vec2u,
+}
+@group(2) @binding(3) var<uniform> build: PhotonBuild;
+
+const SCAN_THREADS: u32 = 256u;
+
+fn photon_slot(id: u32) -> u32 {
+    return build.first + id;
+}
+
+fn is_photon(v: Vpl) -> bool {
+    return v.kind == VPL_SURFACE && max3(v.flux) > 0.0;
+}
+
+@compute @workgroup_size(64)
+fn count_photons(@builtin(global_invocation_id) id: vec3u) {
+    let slot = photon_slot(id.x);
+    if slot >= build.end || !is_photon(vpls[slot]) {
+        return;
+    }
+    atomicAdd(&grid[photon_bucket(photon_cell(vpls[slot].position))], 1u);
+}
+
+var<workgroup> partial: array<u32, SCAN_THREADS>;
+
+@compute @workgroup_size(256)
+fn scan_buckets(@builtin(local_invocation_index) t: u32) {
+    let chunk = (PHOTON_BUCKETS + SCAN_THREADS - 1u) / SCAN_THREADS;
+    let begin = min(t * chunk, PHOTON_BUCKETS);
+    let finish = min(begin + chunk, PHOTON_BUCKETS);
+    var sum = 0u;
+    for (var b = begin; b < finish; b++) {
+        sum += atomicLoad(&grid[b]);
+    }
+    partial[t] = sum;
+    workgroupBarrier();
+    // Inclusive scan of the chunk sums (Hillis & Steele).
+    for (var step = 1u; step < SCAN_THREADS; step *= 2u) {
+        var add = 0u;
+        if t >= step {
+            add = partial[t - step];
+        }
+        workgroupBarrier();
+        partial[t] += add;
+        workgroupBarrier();
+    }
+    var running = partial[t] - sum;
+    for (var b = begin; b < finish; b++) {
+        let count = atomicLoad(&grid[b]);
+        atomicStore(&grid[b], running);
+        atomicStore(&grid[PHOTON_BUCKETS + 1u + b], running);
+        running += count;
+    }
+    if t == SCAN_THREADS - 1u {
+        atomicStore(&grid[PHOTON_BUCKETS], partial[t]);
+    }
+}
+
+@compute @workgroup_size(64)
+fn scatter_photons(@builtin(global_invocation_id) id: vec3u) {
+    let slot = photon_slot(id.x);
+    if slot >= build.end {
+        return;
+    }
+    let v = vpls[slot];
+    if !is_photon(v) {
+        return;
+    }
+    let bucket = photon_bucket(photon_cell(v.position));
+    let i = atomicAdd(&grid[PHOTON_BUCKETS + 1u + bucket], 1u);
+    var p: Photon;
+    p.position = v.position;
+    p.source = slot;
+    p.flux = v.flux;
+    p.incoming = v.incoming;
+    p.normal = v.normal;
+    photons[i] = p;
+}
+
+// Insertion sort: buckets hold a few photons each unless the radius is large against the scene.
+@compute @workgroup_size(64)
+fn sort_buckets(@builtin(global_invocation_id) id: vec3u) {
+    let bucket = id.x;
+    if bucket >= PHOTON_BUCKETS {
+        return;
+    }
+    let begin = atomicLoad(&grid[bucket]);
+    let end = atomicLoad(&grid[bucket + 1u]);
+    for (var i = begin + 1u; i < end; i++) {
+        let p = photons[i];
+        var j = i;
+        while j > begin && photons[j - 1u].source > p.source {
+            photons[j] = photons[j - 1u];
+            j -= 1u;
+        }
+        photons[j] = p;
+    }
+}
