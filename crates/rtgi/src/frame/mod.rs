@@ -370,7 +370,7 @@ fn any_perpendicular(d: Vec3) -> Vec3 {
 /// `bounds` (the scene seen from the light).
 pub fn shadow_views(lights: &[GpuLight], bounds: Aabb, size: u32) -> Vec<ShadowView> {
     let center = bounds.center();
-    let radius = (bounds.extent().length() * 0.5).max(1e-3);
+    let radius = bounds.bounding_radius();
     let mut views = Vec::new();
     let perspective = |pos: Vec3, dir: Vec3, fov: f32| {
         // Near and far enclose the scene seen from the light.

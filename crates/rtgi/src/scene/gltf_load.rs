@@ -1094,7 +1094,7 @@ fn framing_camera(bounds: Aabb) -> Camera {
     }
     let yfov = 45f32.to_radians();
     let center = bounds.center();
-    let radius = (bounds.extent().length() * 0.5).max(1e-3);
+    let radius = bounds.bounding_radius();
     let distance = radius / (yfov * 0.5).sin();
     let position = center + Vec3::new(0.0, 0.35, 1.0).normalize() * distance;
     Camera {

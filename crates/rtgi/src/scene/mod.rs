@@ -358,6 +358,12 @@ impl Aabb {
         self.max - self.min
     }
 
+    /// The sphere through the box's corners: radius half the diagonal, at least 1e-3 (a point or a flat
+    /// box still frames a view and a light's disc).
+    pub fn bounding_radius(&self) -> f32 {
+        (self.extent().length() * 0.5).max(1e-3)
+    }
+
     /// A cube of `cells`³ cubic cells centred on the box, holding it with a cell of margin on every
     /// side (the volumes of LPV's coarsest cascade and of VXGI): its minimum corner and cell edge.
     pub fn enclosing_cube(&self, cells: u32) -> (Vec3, f32) {

@@ -211,7 +211,7 @@ pub struct LightPaths {
 /// The bounding sphere (centre, radius) of the scene.
 pub fn scene_sphere(scene: &Scene) -> (Vec3, f32) {
     let bounds = scene.bounds();
-    ((bounds.min + bounds.max) * 0.5, ((bounds.max - bounds.min).length() * 0.5).max(1e-3))
+    (bounds.center(), bounds.bounding_radius())
 }
 
 impl LightPaths {

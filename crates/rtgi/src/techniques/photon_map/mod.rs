@@ -116,7 +116,7 @@ pub fn lookup_source() -> String {
 
 pub struct PhotonMap {
     light_paths: LightPaths,
-    _vpls: wgpu::Buffer,
+    vpls: wgpu::Buffer,
     /// The photons, bucket by bucket.
     pub photons: wgpu::Buffer,
     /// Bucket starts [0, B] then the scatter cursors (B of them).
@@ -204,7 +204,7 @@ impl PhotonMap {
             scan: pipeline("scan_buckets")?,
             scatter: pipeline("scatter_photons")?,
             sort: pipeline("sort_buckets")?,
-            _vpls: vpls,
+            vpls,
             photons,
             grid,
             group,
@@ -249,7 +249,7 @@ impl PhotonMap {
             ("photons".into(), f64::from(self.stored(ctx)?)),
             ("photon_radius".into(), f64::from(self.radius)),
             ("photon_grid_buckets".into(), f64::from(self.buckets)),
-            ("photon_map_bytes".into(), (self._vpls.size() + self.photons.size() + self.grid.size()) as f64),
+            ("photon_map_bytes".into(), (self.vpls.size() + self.photons.size() + self.grid.size()) as f64),
         ])
     }
 }

@@ -58,7 +58,7 @@ fn the_grid_holds_every_photon_once_in_its_bucket_in_vpl_order() {
 
     let read =
         |buffer: &wgpu::Buffer| readback::read_buffer(&fx.ctx, buffer, 0, buffer.size()).expect("read");
-    let vpl_bytes = read(&map._vpls);
+    let vpl_bytes = read(&map.vpls);
     let vpls: &[GpuVpl] = bytemuck::cast_slice(&vpl_bytes);
     let grid_bytes = read(&map.grid);
     let grid: &[u32] = bytemuck::cast_slice(&grid_bytes);
