@@ -19,6 +19,7 @@ sys.dont_write_bytecode = True
 import measure_common as m  # noqa: E402
 
 SCRIPT = "measure-radiance-cache.py"
+BUILD_PASSES = ("photon tracing", "photon grid", "photon placement")
 CACHE_PASSES = ("photon tracing", "photon grid", "cache splat", "cache miss detection", "record computation",
                 "cache shading")
 
@@ -50,8 +51,7 @@ def main():
         f"up to 4096 new records), {suite.get('frames', 8)} timed frames of the same view, then "
         f"{suite.get('error_frames', 4)} compared with {reference} path-traced "
         f"reference (spp: {ref_spp}). Photon cells: the photon map is built in the warm-up frame with the "
-        "cache, so the timed frames do not include it (its passes are in the table below only where a "
-        "frame built it). ms/frame: the whole frame's GPU time, so for the cache the cost of a "
+        "cache, so the timed frames do not include it; its cost is the last table of each scene. ms/frame: the whole frame's GPU time, so for the cache the cost of a "
         "static view with a complete cache (the G-buffer, direct light, a full splat, the rounds that find "
         "no miss, shading). \"path ms at this FLIP\": the time per frame path needs for the cell's FLIP, "
         "interpolated in log time between its spp cells; the speedup is that over the cell's time (the "
@@ -88,6 +88,17 @@ def main():
             rest = ", ".join(f"{p['name']} {p['ms_per_frame']:.2f}" for p in c["passes"]
                              if p["name"] not in CACHE_PASSES)
             lines.append(f"| {m.label(c)} | " + " | ".join(f"{v:.2f}" for v in own) + f" | {rest} |")
+        built = [c for c in sc if any(p["name"] in BUILD_PASSES for p in c.get("warmup_passes", []))]
+        if built:
+            lines += ["", "The photon map's build and the placement at photons (the warm-up frame's passes, ms; photon records are computed in its record computation; `photons`: stored photons):", "",
+                      "| cell | " + " | ".join(BUILD_PASSES) + " | total | photons | records at photons |",
+                      "|---|" + "---:|" * (len(BUILD_PASSES) + 3)]
+            for c in built:
+                own = [sum(p["ms_per_frame"] for p in c["warmup_passes"] if p["name"] == name) for name in BUILD_PASSES]
+                lines.append(f"| {m.label(c)} | " + " | ".join(f"{v:.1f}" for v in own)
+                             + f" | {sum(own):.1f} | {c['counters'].get('photons', 0):.0f} | "
+                             + (f"{placed:.0f} |" if (placed := c['counters'].get('records_placed_at_photons')) is not None
+                                else "– |"))
         lines.append("")
     m.write_doc(SCRIPT, run.args.doc, lines)
 

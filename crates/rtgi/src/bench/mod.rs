@@ -146,6 +146,10 @@ pub struct CellResult {
     pub gpu_ms: Option<TimeSummary>,
     pub wall_ms: Option<TimeSummary>,
     pub passes: Vec<PassResult>,
+    /// The warm-up frames' passes (per frame): what a technique builds once and keeps (a photon map, a
+    /// filled cache), which the measured frames do not show.
+    #[serde(default)]
+    pub warmup_passes: Vec<PassResult>,
     /// Renderer creation: scene upload, BVH build, pipelines.
     pub setup_ms: f64,
     /// The whole cell: setup, frames, read-backs and metrics.
@@ -331,6 +335,7 @@ fn run_cell(
         gpu_ms: None,
         wall_ms: None,
         passes: Vec::new(),
+        warmup_passes: Vec::new(),
         setup_ms: 0.0,
         cell_wall_ms: 0.0,
         gpu_memory_bytes: 0,
@@ -363,6 +368,7 @@ fn run_cell(
             renderer.cut();
             renderer.step()?;
         }
+        result.warmup_passes = timings(&renderer.stats()?).2;
         renderer.reset_timings();
         // One more than `frames`: the first after the reset is not timed.
         for frame in 0..=suite.frames {

@@ -14,7 +14,11 @@
 struct PhotonBuild {
     first: u32,
     end: u32,
-    _pad: vec2u,
+    // Path vertices stored per path at most (vertex 0, on the lights, is not).
+    depth: u32,
+    _pad: u32,
+    // Slot of vertex j of path 0 (offset_j of light_paths), four per element.
+    offsets: array<vec4u, 3>,
 }
 @group(2) @binding(3) var<uniform> build: PhotonBuild;
 
@@ -72,6 +76,21 @@ fn scan_buckets(@builtin(local_invocation_index) t: u32) {
     }
 }
 
+fn vertex_offset(j: u32) -> u32 {
+    return build.offsets[j / 4u][j % 4u];
+}
+
+// The distance from the photon in `slot` back to the vertex its path left before (vertex j - 1 of
+// the same path: photons are vertices 2 and deeper, so that one is on a surface and stored).
+fn travelled(slot: u32, position: vec3f) -> f32 {
+    var j = 2u;
+    while j < build.depth && vertex_offset(j + 1u) <= slot {
+        j += 1u;
+    }
+    let previous = vertex_offset(j - 1u) + (slot - vertex_offset(j));
+    return distance(position, vpls[previous].position);
+}
+
 @compute @workgroup_size(64)
 fn scatter_photons(@builtin(global_invocation_id) id: vec3u) {
     let slot = photon_slot(id.x);
@@ -88,6 +107,7 @@ fn scatter_photons(@builtin(global_invocation_id) id: vec3u) {
     p.position = v.position;
     p.source = slot;
     p.flux = v.flux;
+    p.travelled = travelled(slot, v.position);
     p.incoming = v.incoming;
     p.normal = v.normal;
     photons[i] = p;

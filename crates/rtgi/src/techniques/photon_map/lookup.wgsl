@@ -1,7 +1,8 @@
 // Radiance estimate from the photon map (Jensen 2001): the light the photons within PHOTON_RADIUS of x
 // reflect towards `view`, Σ f_r(ω_p, view) Φ_p / (π r²), over photons on surfaces that face like x's
 // (shading normals within PHOTON_NORMAL_COS): a disc on the surface, so corners are biased low (the
-// thesis corrects the area by a convex hull; rtgi does not yet). The includer binds `photons`
+// final gather averages many such lookups; records from photon density alone measure the covered area
+// by a convex hull instead, radiance_cache/photon_record.wgsl). The includer binds `photons`
 // (array<Photon>) and `photon_grid` (array<u32>: bucket b's photons are [photon_grid[b],
 // photon_grid[b + 1])).
 

@@ -25,7 +25,7 @@ pub const LOOKUP_WGSL: &str = include_str!("lookup.wgsl");
 
 /// Photons count towards a lookup only on surfaces whose shading normal is within this cosine of the
 /// query's (a photon on a wall meeting the floor in a corner is not floor light).
-const NORMAL_COS: f32 = 0.7;
+pub(crate) const NORMAL_COS: f32 = 0.7;
 /// The most buckets of the hashed grid: its sort runs one thread per bucket in 64-thread workgroups,
 /// within the 65535 workgroups of a dispatch.
 const MAX_BUCKETS: u32 = 1 << 21;
@@ -37,7 +37,7 @@ pub struct GpuPhoton {
     pub position: [f32; 3],
     pub source: u32,
     pub flux: [f32; 3],
-    pub _pad0: u32,
+    pub travelled: f32,
     pub incoming: [f32; 3],
     pub _pad1: u32,
     pub normal: [f32; 3],
@@ -50,7 +50,9 @@ pub struct GpuPhoton {
 struct PhotonBuild {
     first: u32,
     end: u32,
-    _pad: [u32; 2],
+    depth: u32,
+    _pad: u32,
+    offsets: [u32; 12],
 }
 
 /// The parameters of a technique that builds a photon map.
@@ -129,6 +131,9 @@ pub struct PhotonMap {
     /// The VPL slots that may hold photons start at `first` (read by the tests); `slots` of them.
     #[cfg_attr(not(test), allow(dead_code))]
     first: u32,
+    /// Slot of vertex j of path 0 (`u32::MAX` where not stored), as the build reads it.
+    #[cfg_attr(not(test), allow(dead_code))]
+    vertex_offsets: [u32; 12],
     slots: u32,
     paths: u32,
     buckets: u32,
@@ -149,6 +154,12 @@ impl PhotonMap {
             Some(l) => (l.offset.get(2).copied().flatten().unwrap_or(l.used), l.used, l.paths),
             None => (0, 0, 0),
         };
+        const _: () =
+            assert!((MAX_DEPTH as usize) < 12, "PhotonBuild.offsets holds every vertex 0..=MAX_DEPTH");
+        let mut offsets = [u32::MAX; 12];
+        for (o, stored) in offsets.iter_mut().zip(layout.iter().flat_map(|l| &l.offset)) {
+            *o = stored.unwrap_or(u32::MAX);
+        }
         let vpl_bytes = u64::from(slots.max(1)) * size_of::<GpuVpl>() as u64;
         ctx.check_storage_size("the photon map's light-path vertices (lower photon_paths)", vpl_bytes)?;
         let capacity = (end - first).max(1);
@@ -166,7 +177,13 @@ impl PhotonMap {
         });
         let build = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("photon map build"),
-            contents: bytemuck::bytes_of(&PhotonBuild { first, end, _pad: [0; 2] }),
+            contents: bytemuck::bytes_of(&PhotonBuild {
+                first,
+                end,
+                depth: settings.depth,
+                _pad: 0,
+                offsets,
+            }),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let layout = compute::layout(
@@ -209,6 +226,7 @@ impl PhotonMap {
             grid,
             group,
             first,
+            vertex_offsets: offsets,
             slots: end - first,
             paths,
             buckets,

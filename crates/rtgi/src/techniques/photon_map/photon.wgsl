@@ -10,7 +10,9 @@ struct Photon {
     source: u32,
     // The flux that arrived (W), from `incoming` (unit, towards where it came from).
     flux: vec3f,
-    _pad0: u32,
+    // The length of the light path's last segment: how far the surface that sent it lies (the
+    // thesis's d, whose harmonic mean is a photon-density record's R).
+    travelled: f32,
     incoming: vec3f,
     _pad1: u32,
     // Shading normal of the surface it landed on.

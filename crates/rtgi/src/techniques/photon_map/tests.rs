@@ -22,6 +22,7 @@ fn shaders_validate_and_mirror_the_host_layouts() {
             ("position", offset_of!(GpuPhoton, position)),
             ("source", offset_of!(GpuPhoton, source)),
             ("flux", offset_of!(GpuPhoton, flux)),
+            ("travelled", offset_of!(GpuPhoton, travelled)),
             ("incoming", offset_of!(GpuPhoton, incoming)),
             ("normal", offset_of!(GpuPhoton, normal)),
         ],
@@ -30,7 +31,12 @@ fn shaders_validate_and_mirror_the_host_layouts() {
         &m,
         "PhotonBuild",
         size_of::<PhotonBuild>(),
-        &[("first", offset_of!(PhotonBuild, first)), ("end", offset_of!(PhotonBuild, end))],
+        &[
+            ("first", offset_of!(PhotonBuild, first)),
+            ("end", offset_of!(PhotonBuild, end)),
+            ("depth", offset_of!(PhotonBuild, depth)),
+            ("offsets", offset_of!(PhotonBuild, offsets)),
+        ],
     );
 }
 
@@ -45,8 +51,16 @@ fn bucket_of(cell: [i32; 3], buckets: u32) -> u32 {
     pcg(a ^ pcg(b ^ pcg(c))) & (buckets - 1)
 }
 
+/// The slot of the vertex before the one in `slot` on the same light path, from the layout's offsets.
+fn previous_vertex(offsets: &[u32; 12], depth: u32, slot: u32) -> u32 {
+    let j = (2..=depth as usize).rev().find(|&j| offsets[j] <= slot).expect("a photon slot");
+    offsets[j - 1] + (slot - offsets[j])
+}
+
 /// After a build on the Cornell box every photon (surface vertex 2 or deeper with flux) sits once in
-/// the bucket of its cell, each bucket in VPL order, and the bucket starts are the running counts.
+/// the bucket of its cell, each bucket in VPL order, and the bucket starts are the running counts;
+/// each photon's `travelled` is the distance back to its path's previous vertex, which lies along its
+/// `incoming`.
 #[test]
 fn the_grid_holds_every_photon_once_in_its_bucket_in_vpl_order() {
     let fx = fixture("cornell", 16, 16);
@@ -93,6 +107,21 @@ fn the_grid_holds_every_photon_once_in_its_bucket_in_vpl_order() {
                 (v.position, v.flux, v.incoming, v.normal)
             );
             assert!(seen.insert(p.source, bucket).is_none(), "photon {} twice", p.source);
+            let before = &vpls[previous_vertex(&map.vertex_offsets, settings.depth, p.source) as usize];
+            assert_eq!(before.kind, 1, "photon {} comes from a surface vertex", p.source);
+            let back = std::array::from_fn::<f32, 3, _>(|a| before.position[a] - p.position[a]);
+            let length = back.iter().map(|x| x * x).sum::<f32>().sqrt();
+            assert!((p.travelled - length).abs() <= 1e-5 * length.max(1.0), "photon {}", p.source);
+            // The previous vertex lies on the ray back along `incoming`, up to the photon's own offset
+            // off its surface (common/scene.wgsl offset_origin: 1e-4 of the largest coordinate).
+            let (back, incoming) = (glam::Vec3::from(back), glam::Vec3::from(p.incoming));
+            let off_ray = back.cross(incoming).length();
+            let offset = 1e-4 * p.position.iter().fold(1.0f32, |m, x| m.max(x.abs()));
+            assert!(
+                back.dot(incoming) > 0.0 && off_ray <= 2.0 * offset + 1e-5,
+                "photon {}: previous vertex {off_ray} off the incoming ray (offset {offset})",
+                p.source
+            );
             // The cell on the CPU, where no coordinate is within rounding of a cell boundary.
             let g = p.position.map(|x| x / (2.0 * map.radius));
             if g.iter().all(|x| (x - x.round()).abs() > 1e-4) {

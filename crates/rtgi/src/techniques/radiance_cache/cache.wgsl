@@ -118,6 +118,9 @@ struct CacheState {
     rounds_total: u32,
     // Temporal mode: deleted records removed by compaction, in all.
     compacted_total: u32,
+    // Photon placement: its rounds since the cache was cleared, and the records it placed.
+    photon_round: u32,
+    photon_placed: u32,
 }
 
 // Weights above this are clamped (the weight is infinite at the record itself).

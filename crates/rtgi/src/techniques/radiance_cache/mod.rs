@@ -40,8 +40,10 @@
 //! `photon-irradiance-cache` (the thesis's chapter 6, report §5) carries every diffuse bounce: a photon
 //! map (`photon_map`) is built when the cache is cleared, and each record ray's hit adds the light the
 //! photons there reflect towards the record to its direct light (Jensen's final gather, the first bounce
-//! by the record's rays, the others by photon density). The thesis instead places records at photons
-//! and takes their irradiance from the photons alone (no rays); rtgi keeps its screen-space placement.
+//! by the record's rays, the others by photon density). With `record_irradiance=photon_density` a
+//! record takes its light from the photons around it alone, as the thesis's Algorithm 7 does (no
+//! record rays; `photon_record.wgsl`). The thesis also places records at photons (Algorithm 6); rtgi
+//! keeps its screen-space placement for both, so the view's cache misses decide where records go.
 
 use std::collections::BTreeMap;
 
@@ -189,8 +191,23 @@ const TEMPORAL_PARAMS: [ParamSpec; 24] = cache_params![
     },
 ];
 
-const PHOTON_CACHE_PARAMS: [ParamSpec; 24] =
-    cache_params![PHOTON_PARAMS[0], PHOTON_PARAMS[1], PHOTON_PARAMS[2]];
+const PHOTON_CACHE_PARAMS: [ParamSpec; 26] = cache_params![
+    PHOTON_PARAMS[0],
+    PHOTON_PARAMS[1],
+    PHOTON_PARAMS[2],
+    ParamSpec {
+        name: "record_irradiance",
+        kind: ParamKind::Choice(&["final_gather", "photon_density"]),
+        default: "final_gather",
+        doc: "final_gather: each record traces its hemisphere and adds the photons' light at the hits (first bounce by rays, the rest by photon density); photon_density: the thesis's Algorithm 7, records from the photons around them alone (no rays; area by a corrected convex hull, R from the photons' travelled distances)",
+    },
+    ParamSpec {
+        name: "record_placement",
+        kind: ParamKind::Choice(&["view", "photons"]),
+        default: "view",
+        doc: "view: records where the view's pixels miss the cache; photons: first at the photons the cache misses (the thesis's Algorithm 6, whole-scene and view-independent, within the frame's record budget), then the view fills what they left",
+    },
+];
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "radiance-cache",
@@ -350,6 +367,16 @@ pub struct CacheState {
     pub deleted_total: u32,
     pub rounds_total: u32,
     pub compacted_total: u32,
+    pub photon_round: u32,
+    pub photon_placed: u32,
+}
+
+/// The passes of photon placement (`record_placement=photons`).
+struct PhotonPlacement {
+    detect: wgpu::ComputePipeline,
+    compact: wgpu::ComputePipeline,
+    record: wgpu::ComputePipeline,
+    end: wgpu::ComputePipeline,
 }
 
 /// The stratification of `samples` hemisphere rays: (M, N) cells in θ and φ with N ≈ πM, as Ward &
@@ -446,6 +473,10 @@ pub(crate) struct RadianceCache {
     /// `photon-irradiance-cache`'s photon map, and whether it needs building (after a clear).
     photon_map: Option<PhotonMap>,
     photons_stale: bool,
+    /// Records from the photons alone (`record_irradiance=photon_density`).
+    photon_records: bool,
+    /// Records placed at photons first (`record_placement=photons`).
+    photon_placement: Option<PhotonPlacement>,
     max_lifespan: u32,
     capacity: u32,
     cells: (u32, u32),
@@ -513,6 +544,11 @@ fn cache_defines(
     let temporal = TemporalSettings::from_params(p);
     photon_defines(brdf_table_shape(p).defines(Defines::new()), photon_map)
         .bool("PHOTONS", photon_map.is_some())
+        .bool("PHOTON_RECORDS", photon_records(p))
+        .f32("MAX_GATHER_RADII", MAX_GATHER_RADII)
+        .u32("PHOTON_CANDIDATES", PHOTON_CANDIDATES)
+        .u32("PHOTON_PICKS", PHOTON_PICKS)
+        .f32("PLACEMENT_CELL", photon_map.map_or(1.0, |m| PLACEMENT_CELL_RADII * m.radius))
         .f32("ACCURACY", p.float("accuracy") as f32)
         .f32("GLOSSY_ACCURACY", p.float("glossy_accuracy") as f32)
         .f32("GLOSSY_ROUGHNESS", p.float("glossy_roughness") as f32)
@@ -536,6 +572,26 @@ fn cache_defines(
         .u32("MAX_LIFESPAN", temporal.map_or(1, |t| t.max_lifespan))
         .u32("NEXT_CELLS", if temporal.is_some() { cells.0 * cells.1 } else { 1 })
 }
+
+/// A photon-density record gathers within at most this many photon radii (its query reads up to
+/// (MAX_GATHER_RADII + 1)³ grid cells).
+const MAX_GATHER_RADII: f32 = 4.0;
+
+/// Photon placement (`record_placement=photons`): photons tested against the cache per round (every
+/// stride-th of the map), the world-grid cells a round picks at most one of them in (hashed), the
+/// first round's cell edge in photon radii (halving each round) and the rounds.
+const PHOTON_CANDIDATES: u32 = 16384;
+const PHOTON_PICKS: u32 = 4096;
+const PLACEMENT_CELL_RADII: f32 = 16.0;
+const PHOTON_PLACEMENT_ROUNDS: u32 = 8;
+
+/// Whether records take their light from the photons around them alone (no record rays).
+fn photon_records(p: &ParamValues) -> bool {
+    p.get("record_irradiance").is_some() && p.choice("record_irradiance") == "photon_density"
+}
+
+/// The record pass: hemisphere cells traced, or gathered from the photon map.
+const RECORD_WGSL: &str = concat!(include_str!("record.wgsl"), "\n", include_str!("photon_record.wgsl"));
 
 /// The composed source of a cache pass: the records, the cache's bindings, the BRDF table lookup, then
 /// the pass.
@@ -587,7 +643,8 @@ impl RadianceCache {
         ctx.check_storage_size("the radiance cache's per-tile record sets", bin_bytes)?;
         let per_frame = (p.int("records_per_frame") as u32).min(capacity);
         let candidate_count =
-            u64::from(width.div_ceil(MIN_CANDIDATE_TILE) * height.div_ceil(MIN_CANDIDATE_TILE));
+            u64::from(width.div_ceil(MIN_CANDIDATE_TILE) * height.div_ceil(MIN_CANDIDATE_TILE))
+                .max(u64::from(PHOTON_PICKS));
 
         let device = &ctx.device;
         let storage = |label: &str, size: u64| compute::storage_buffer(ctx, label, size);
@@ -740,14 +797,25 @@ impl RadianceCache {
         let bins_pipeline = pipeline("radiance cache record sets", splat, "splat_bins", &groups)?;
         let splat_pipeline = pipeline("radiance cache splat", splat, "splat", &groups)?;
         let detect_pipeline = pipeline("radiance cache miss detection", place, "detect_misses", &groups)?;
-        let record_pipeline =
-            pipeline("radiance cache records", include_str!("record.wgsl"), "compute_record", &groups)?;
+        let record_pipeline = pipeline("radiance cache records", RECORD_WGSL, "compute_record", &groups)?;
         let shade_pipeline =
             pipeline("radiance cache shading", include_str!("shade.wgsl"), "shade", &groups)?;
         // The compaction (and temporal mode's refresh dispatch) alone write the record pass's dispatch
         // arguments (group 3).
         let with_dispatch = [groups[0], groups[1], groups[2], &dispatch_layout];
         let compact_pipeline = pipeline("radiance cache compaction", place, "compact", &with_dispatch)?;
+        let photon_placement = if p.get("record_placement").is_some()
+            && p.choice("record_placement") == "photons"
+        {
+            Some(PhotonPlacement {
+                detect: pipeline("photon placement misses", place, "detect_photon_misses", &groups)?,
+                compact: pipeline("photon placement compaction", place, "compact_photons", &with_dispatch)?,
+                record: pipeline("photon placement records", RECORD_WGSL, "compute_photon_record", &groups)?,
+                end: pipeline("photon placement end", place, "end_photon_placement", &groups)?,
+            })
+        } else {
+            None
+        };
         let temporal = match temporal {
             Some(_) => {
                 let aging = include_str!("temporal.wgsl");
@@ -772,7 +840,7 @@ impl RadianceCache {
                     )?,
                     refresh_pipeline: pipeline(
                         "radiance cache refresh",
-                        include_str!("record.wgsl"),
+                        RECORD_WGSL,
                         "refresh_record",
                         &groups,
                     )?,
@@ -809,6 +877,8 @@ impl RadianceCache {
             temporal,
             photon_map,
             photons_stale: true,
+            photon_records: photon_records(p),
+            photon_placement,
             capacity,
             cells,
             iterations: p.int("iterations") as u32,
@@ -847,6 +917,38 @@ impl RadianceCache {
                 self.width,
                 self.height,
             );
+        })?;
+        Ok(())
+    }
+
+    /// The thesis's Algorithm 6 (`record_placement=photons`), once after the photon map is built: rounds
+    /// of photon misses → picks → new records, then the frame's splat takes them all.
+    fn place_at_photons(&self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let Some(placement) = &self.photon_placement else {
+            return Ok(());
+        };
+        let groups = self.groups(fc);
+        let with_dispatch = [groups[0], groups[1], groups[2], &self.dispatch_group];
+        for _ in 0..PHOTON_PLACEMENT_ROUNDS {
+            profiler.pass(fc.ctx, "photon placement", |encoder| {
+                encoder.clear_buffer(&self.candidates, 0, None);
+                let candidates = PHOTON_CANDIDATES.div_ceil(64);
+                compute::dispatch(encoder, "photon misses", &placement.detect, &groups, [candidates, 1, 1]);
+                compute::dispatch(encoder, "photon picks", &placement.compact, &with_dispatch, [1, 1, 1]);
+            })?;
+            profiler.pass(fc.ctx, "record computation", |encoder| {
+                crate::gpu::dispatch::dispatch_indirect(
+                    encoder,
+                    "photon records",
+                    &placement.record,
+                    &groups,
+                    &self.record_dispatch,
+                    0,
+                );
+            })?;
+        }
+        profiler.pass(fc.ctx, "photon placement", |encoder| {
+            compute::dispatch(encoder, "photon placement end", &placement.end, &groups, [1, 1, 1]);
         })?;
         Ok(())
     }
@@ -995,6 +1097,7 @@ impl Technique for RadianceCache {
             && std::mem::take(&mut self.photons_stale)
         {
             map.build(fc, profiler)?;
+            self.place_at_photons(fc, profiler)?;
         }
         if self.temporal.is_some() {
             self.age_and_refresh(fc, profiler)?;
@@ -1040,6 +1143,9 @@ impl Technique for RadianceCache {
         if let Some(map) = &self.photon_map {
             c.extend(map.counters(ctx)?);
         }
+        if self.photon_placement.is_some() {
+            c.insert("records_placed_at_photons".into(), f64::from(s.photon_placed));
+        }
         if let Some(ms) = measured.pass_mean_ms("record computation") {
             c.insert("record_computation_ms_per_round".into(), ms);
         }
@@ -1083,7 +1189,17 @@ impl Technique for RadianceCache {
 
     fn warnings(&self) -> Vec<String> {
         if self.photon_map.is_some() {
-            return vec!["photon-irradiance-cache: specular lobes outside [glossy_min_roughness, glossy_roughness), and dielectric specular layers of diffuse-classed surfaces, get no indirect light; photon density is estimated over discs (biased low in corners)".into()];
+            let density = if self.photon_records {
+                format!(
+                    "records take their light from the photons within a·R (at most {MAX_GATHER_RADII} photon radii) over their convex hull; cells no photon reached are dark"
+                )
+            } else {
+                "photon density at the record rays' hits is estimated over discs (biased low in corners)"
+                    .into()
+            };
+            return vec![format!(
+                "photon-irradiance-cache: specular lobes outside [glossy_min_roughness, glossy_roughness), and dielectric specular layers of diffuse-classed surfaces, get no indirect light; {density}"
+            )];
         }
         vec!["radiance-cache: records carry one bounce; specular lobes outside [glossy_min_roughness, glossy_roughness), and dielectric specular layers of diffuse-classed surfaces, get no indirect light".into()]
     }

@@ -64,21 +64,27 @@ fn picked_pixel(t: u32) -> u32 {
     return pixel.x | (pixel.y << 16u);
 }
 
-// One workgroup: every thread counts the picks of a contiguous run of tiles (starting at a per-round
-// rotation, so that a budget cut does not always favour the top of the frame), a prefix sum over the
-// threads gives each run its first slot, and the runs write their pixels in order. Then thread 0
-// reserves the slots against the frame's budget and the capacity, and writes the record pass's
-// workgroup counts.
-@compute @workgroup_size(COMPACT_THREADS, 1, 1)
-fn compact(@builtin(local_invocation_index) thread: u32) {
-    let tiles = candidate_tile_count();
+// What candidate t of this round picked (a pixel, x | y << 16, or a photon index), or NO_PIXEL.
+fn picked(t: u32, photon_round: bool) -> u32 {
+    if photon_round {
+        return picked_photon(t);
+    }
+    return picked_pixel(t);
+}
+
+// One workgroup: every thread counts the picks of a contiguous run of candidates (starting at a
+// per-round rotation, so that a budget cut does not always favour the top of the frame), a prefix sum
+// over the threads gives each run its first slot, and the runs write their picks in order. Then
+// thread 0 reserves the slots against the frame's budget and the capacity, and writes the record
+// pass's workgroup counts.
+fn compact_picks(thread: u32, tiles: u32, photon_round: bool) {
     let run = (tiles + COMPACT_THREADS - 1u) / COMPACT_THREADS;
     let rotation = hash2(state.rounds_total, SEED) % tiles;
     let first = thread * run;
     let last = min(first + run, tiles);
     var picks = 0u;
     for (var i = first; i < last; i++) {
-        picks += select(0u, 1u, picked_pixel((i + rotation) % tiles) != NO_PIXEL);
+        picks += select(0u, 1u, picked((i + rotation) % tiles, photon_round) != NO_PIXEL);
     }
     partial[thread] = picks;
     workgroupBarrier();
@@ -96,9 +102,9 @@ fn compact(@builtin(local_invocation_index) thread: u32) {
     );
     var slot = partial[thread] - picks;
     for (var i = first; i < last && slot < slots; i++) {
-        let pixel = picked_pixel((i + rotation) % tiles);
-        if pixel != NO_PIXEL {
-            new_pixels[slot] = pixel;
+        let pick = picked((i + rotation) % tiles, photon_round);
+        if pick != NO_PIXEL {
+            new_pixels[slot] = pick;
             slot++;
         }
     }
@@ -112,8 +118,74 @@ fn compact(@builtin(local_invocation_index) thread: u32) {
         state.count += slots;
         state.created_this_frame += slots;
         state.created_total += slots;
-        state.iteration += 1u;
         state.rounds_total += 1u;
+        if photon_round {
+            state.photon_round += 1u;
+            state.photon_placed += slots;
+        } else {
+            state.iteration += 1u;
+        }
         record_dispatch = vec3u(slots, 1u, 1u);
     }
+}
+
+@compute @workgroup_size(COMPACT_THREADS, 1, 1)
+fn compact(@builtin(local_invocation_index) thread: u32) {
+    compact_picks(thread, candidate_tile_count(), false);
+}
+
+// Records placed at photons (`record_placement=photons`, the thesis's Algorithm 6: a record at every
+// photon the cache does not yet cover, Σ_k w_k < a, so that the lit parts of the scene, where photons
+// land, are covered whatever the view). The thesis walks the photons in order and adds each record at
+// once; here each round tests PHOTON_CANDIDATES photons (every stride-th of the map, the buckets'
+// order scattering them over the scene) against every record, picks the first missing one in each
+// cell of a world grid (PLACEMENT_CELL wide, halving each round, hashed into PHOTON_PICKS slots), and
+// the record pass computes the picks in parallel before the next round tests again. Photon records
+// are diffuse (photons do not carry their surface's material).
+
+fn photon_stride() -> u32 {
+    return max(1u, photon_grid[PHOTON_BUCKETS] / PHOTON_CANDIDATES);
+}
+
+fn picked_photon(t: u32) -> u32 {
+    let key = atomicLoad(&candidates[t]);
+    if key == 0u {
+        return NO_PIXEL;
+    }
+    return (~key) * photon_stride();
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn detect_photon_misses(@builtin(global_invocation_id) id: vec3u) {
+    let c = id.x;
+    let i = c * photon_stride();
+    if c >= PHOTON_CANDIDATES || i >= photon_grid[PHOTON_BUCKETS] {
+        return;
+    }
+    let p = photons[i];
+    var weight = 0.0;
+    for (var k = 0u; k < state.count; k++) {
+        let r = records[k];
+        let e = record_error(r, p.position, p.normal);
+        if !record_is_radiance(r) && !record_is_deleted(r) && e <= ACCURACY {
+            weight += record_weight_of_error(e);
+        }
+    }
+    if weight >= ACCURACY {
+        return;
+    }
+    let size = PLACEMENT_CELL / f32(1u << min(state.photon_round, 24u));
+    let cell = bitcast<vec3u>(vec3i(floor(p.position / size)));
+    atomicMax(&candidates[hash3(cell.x, cell.y, cell.z) & (PHOTON_PICKS - 1u)], ~c);
+}
+
+@compute @workgroup_size(COMPACT_THREADS, 1, 1)
+fn compact_photons(@builtin(local_invocation_index) thread: u32) {
+    compact_picks(thread, PHOTON_PICKS, true);
+}
+
+// After the photon rounds: the frame's first splat starts from the first record again.
+@compute @workgroup_size(1, 1, 1)
+fn end_photon_placement() {
+    state.splat_begin = 0u;
 }

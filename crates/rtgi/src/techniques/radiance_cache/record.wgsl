@@ -132,8 +132,13 @@ fn cell_of(local: vec3f) -> u32 {
 }
 
 // Traces the cells of the record (this thread's share) into cell_radiance / cell_inverse_distance;
-// in temporal mode also predicts each hit and lands it in the z-buffer.
+// in temporal mode also predicts each hit and lands it in the z-buffer. With PHOTON_RECORDS the cells
+// come from the photon map instead (photon_record.wgsl; every thread must call it).
 fn trace_cells(k: u32, rs: RecordSurface, thread: u32) {
+    if PHOTON_RECORDS {
+        gather_photon_cells(rs, thread);
+        return;
+    }
     for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
         var rng = rng_new(vec2u(record_seed(rs), cell), 0u, hash2(SEED, 0x72637264u));
         let dir = local_to_world(cell_direction(cell, &rng), rs.normal);
@@ -273,7 +278,11 @@ fn irradiance_record(rs: RecordSurface) -> Record {
 
     // R: the harmonic mean distance, its zone a·R clamped to [MIN_ZONE_PIXELS, MAX_ZONE_PIXELS] pixels
     // of the placing view (the thesis does not clamp; without a floor, corners fill with tiny records).
-    let harmonic = select(3.0e38, f32(CELLS) / inverse_sum, inverse_sum > 0.0);
+    var harmonic = select(3.0e38, f32(CELLS) / inverse_sum, inverse_sum > 0.0);
+    if PHOTON_RECORDS {
+        // From the photons' own distances: their cells' means would count empty cells as far.
+        harmonic = photon_gather.x;
+    }
     let accuracy = kind_accuracy(rs.glossy);
     let radius =
         clamp(harmonic, MIN_ZONE_PIXELS * rs.footprint / accuracy, MAX_ZONE_PIXELS * rs.footprint / accuracy);
@@ -398,4 +407,18 @@ fn refresh_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation
         old.irradiance.w,
     );
     build_record(k, rs, thread);
+}
+
+// A record at the photon the photon placement picked for slot `group.x` (diffuse; its zone no
+// smaller than the photon radius: there is no view to size it by, so its footprint is the photon
+// radius over MIN_ZONE_PIXELS).
+@compute @workgroup_size(RECORD_THREADS, 1, 1)
+fn compute_photon_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
+    let slot = group.x;
+    let p = photons[new_pixels[slot]];
+    let rs = RecordSurface(
+        p.position, p.normal, p.normal, offset_origin(p.position, p.normal), false,
+        PHOTON_RADIUS / max(MIN_ZONE_PIXELS, 1.0),
+    );
+    build_record(state.splat_begin + slot, rs, thread);
 }
