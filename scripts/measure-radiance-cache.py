@@ -94,9 +94,10 @@ def main():
                       "| cell | " + " | ".join(BUILD_PASSES) + " | total | photons | records at photons |",
                       "|---|" + "---:|" * (len(BUILD_PASSES) + 3)]
             for c in built:
-                own = [sum(p["ms_per_frame"] for p in c["warmup_passes"] if p["name"] == name) for name in BUILD_PASSES]
-                lines.append(f"| {m.label(c)} | " + " | ".join(f"{v:.1f}" for v in own)
-                             + f" | {sum(own):.1f} | {c['counters'].get('photons', 0):.0f} | "
+                own = [sum(p["ms_per_frame"] for p in c["warmup_passes"] if p["name"] == name)
+                       if any(p["name"] == name for p in c["warmup_passes"]) else None for name in BUILD_PASSES]
+                lines.append(f"| {m.label(c)} | " + " | ".join("–" if v is None else f"{v:.1f}" for v in own)
+                             + f" | {sum(v or 0.0 for v in own):.1f} | {c['counters'].get('photons', 0):.0f} | "
                              + (f"{placed:.0f} |" if (placed := c['counters'].get('records_placed_at_photons')) is not None
                                 else "– |"))
         lines.append("")

@@ -146,8 +146,9 @@ pub struct CellResult {
     pub gpu_ms: Option<TimeSummary>,
     pub wall_ms: Option<TimeSummary>,
     pub passes: Vec<PassResult>,
-    /// The warm-up frames' passes (per frame): what a technique builds once and keeps (a photon map, a
-    /// filled cache), which the measured frames do not show.
+    /// The warm-up frames' passes (all their calls' time per warm-up frame, first calls included): what
+    /// a technique builds once and keeps (a photon map, a filled cache), which the measured frames do
+    /// not show.
     #[serde(default)]
     pub warmup_passes: Vec<PassResult>,
     /// Renderer creation: scene upload, BVH build, pipelines.
@@ -230,6 +231,23 @@ fn timings(stats: &RenderStats) -> (Option<TimeSummary>, Option<TimeSummary>, Ve
         })
         .collect();
     (gpu, wall, passes)
+}
+
+/// Per pass, its whole time over the warm-up frames per frame (GPU where timestamps are reliable, else
+/// wall): a pass run once there, such as a build, has no steady calls to average.
+fn warmup_timings(stats: &RenderStats) -> Vec<PassResult> {
+    let frames = f64::from(stats.frames.max(1));
+    stats
+        .passes
+        .iter()
+        .filter_map(|p| {
+            Some(PassResult {
+                name: p.name.clone(),
+                ms_per_frame: p.gpu_ms.or(p.wall_ms)? / frames,
+                wall_ms_per_frame: p.wall_ms.map(|w| w / frames),
+            })
+        })
+        .collect()
 }
 
 /// References of one run, rendered once per (scene, time, size) and shared by every cell; with
@@ -368,7 +386,7 @@ fn run_cell(
             renderer.cut();
             renderer.step()?;
         }
-        result.warmup_passes = timings(&renderer.stats()?).2;
+        result.warmup_passes = warmup_timings(&renderer.stats()?);
         renderer.reset_timings();
         // One more than `frames`: the first after the reset is not timed.
         for frame in 0..=suite.frames {
