@@ -936,16 +936,7 @@ impl RadianceCache {
                 compute::dispatch(encoder, "photon misses", &placement.detect, &groups, [candidates, 1, 1]);
                 compute::dispatch(encoder, "photon picks", &placement.compact, &with_dispatch, [1, 1, 1]);
             })?;
-            profiler.pass(fc.ctx, "record computation", |encoder| {
-                crate::gpu::dispatch::dispatch_indirect(
-                    encoder,
-                    "photon records",
-                    &placement.record,
-                    &groups,
-                    &self.record_dispatch,
-                    0,
-                );
-            })?;
+            self.compute_picked_records(fc, profiler, &placement.record)?;
         }
         profiler.pass(fc.ctx, "photon placement", |encoder| {
             compute::dispatch(encoder, "photon placement end", &placement.end, &groups, [1, 1, 1]);
@@ -974,17 +965,30 @@ impl RadianceCache {
                 [1, 1, 1],
             );
         })?;
+        self.compute_picked_records(fc, profiler, &self.record_pipeline)?;
+        self.splat(fc, profiler)
+    }
+
+    /// The record pass over the round's picks (`pipeline`: at pixels or at photons), as many workgroups
+    /// as the compaction wrote into the record dispatch.
+    fn compute_picked_records(
+        &self,
+        fc: &FrameContext,
+        profiler: &mut Profiler,
+        pipeline: &wgpu::ComputePipeline,
+    ) -> Result<(), RenderError> {
+        let groups = self.groups(fc);
         profiler.pass(fc.ctx, "record computation", |encoder| {
             crate::gpu::dispatch::dispatch_indirect(
                 encoder,
                 "record computation",
-                &self.record_pipeline,
+                pipeline,
                 &groups,
                 &self.record_dispatch,
                 0,
             );
         })?;
-        self.splat(fc, profiler)
+        Ok(())
     }
 
     /// Temporal mode, before the frame's splat: the next frame's pose for the record pass, then
