@@ -4,9 +4,12 @@
 //   count_photons: photons per bucket (atomic adds into grid[0, B));
 //   scan_buckets: one workgroup turns the counts into bucket starts grid[0, B] (grid[B]: the total)
 //                 and copies them into the scatter cursors grid[B + 1, 2B + 1);
-//   scatter_photons: every photon to its bucket's next slot;
-//   sort_buckets: every bucket in VPL order, so that sums over a bucket do not depend on the atomics'
-//                 order (deterministic output).
+//   scatter_photons: every photon's VPL slot to its bucket's next key (in the atomics' order);
+//   place_photons: every photon to its rank among its bucket's keys: each bucket holds its photons in
+//                  VPL order, so that sums over a bucket do not depend on the atomics' order
+//                  (deterministic output). A rank is a loop over the bucket, not a sort of it: one
+//                  invocation sorting a bucket runs O(n²) iterations, and lavapipe (llvmpipe) ends every
+//                  invocation's loops after 65535 iterations in all, leaving large buckets half sorted.
 
 @group(2) @binding(0) var<storage, read> vpls: array<Vpl>;
 @group(2) @binding(1) var<storage, read_write> photons: array<Photon>;
@@ -21,6 +24,8 @@ struct PhotonBuild {
     offsets: array<vec4u, 3>,
 }
 @group(2) @binding(3) var<uniform> build: PhotonBuild;
+// The photons' VPL slots, bucket by bucket, in scatter order.
+@group(2) @binding(4) var<storage, read_write> keys: array<u32>;
 
 const SCAN_THREADS: u32 = 256u;
 
@@ -94,6 +99,16 @@ fn travelled(slot: u32, position: vec3f) -> f32 {
 @compute @workgroup_size(64)
 fn scatter_photons(@builtin(global_invocation_id) id: vec3u) {
     let slot = photon_slot(id.x);
+    if slot >= build.end || !is_photon(vpls[slot]) {
+        return;
+    }
+    let bucket = photon_bucket(photon_cell(vpls[slot].position));
+    keys[atomicAdd(&grid[PHOTON_BUCKETS + 1u + bucket], 1u)] = slot;
+}
+
+@compute @workgroup_size(64)
+fn place_photons(@builtin(global_invocation_id) id: vec3u) {
+    let slot = photon_slot(id.x);
     if slot >= build.end {
         return;
     }
@@ -102,7 +117,12 @@ fn scatter_photons(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     let bucket = photon_bucket(photon_cell(v.position));
-    let i = atomicAdd(&grid[PHOTON_BUCKETS + 1u + bucket], 1u);
+    let begin = atomicLoad(&grid[bucket]);
+    let end = atomicLoad(&grid[bucket + 1u]);
+    var rank = 0u;
+    for (var i = begin; i < end; i++) {
+        rank += select(0u, 1u, keys[i] < slot);
+    }
     var p: Photon;
     p.position = v.position;
     p.source = slot;
@@ -110,25 +130,5 @@ fn scatter_photons(@builtin(global_invocation_id) id: vec3u) {
     p.travelled = travelled(slot, v.position);
     p.incoming = v.incoming;
     p.normal = v.normal;
-    photons[i] = p;
-}
-
-// Insertion sort: buckets hold a few photons each unless the radius is large against the scene.
-@compute @workgroup_size(64)
-fn sort_buckets(@builtin(global_invocation_id) id: vec3u) {
-    let bucket = id.x;
-    if bucket >= PHOTON_BUCKETS {
-        return;
-    }
-    let begin = atomicLoad(&grid[bucket]);
-    let end = atomicLoad(&grid[bucket + 1u]);
-    for (var i = begin + 1u; i < end; i++) {
-        let p = photons[i];
-        var j = i;
-        while j > begin && photons[j - 1u].source > p.source {
-            photons[j] = photons[j - 1u];
-            j -= 1u;
-        }
-        photons[j] = p;
-    }
+    photons[begin + rank] = p;
 }

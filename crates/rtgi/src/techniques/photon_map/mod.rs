@@ -26,8 +26,8 @@ pub const LOOKUP_WGSL: &str = include_str!("lookup.wgsl");
 /// Photons count towards a lookup only on surfaces whose shading normal is within this cosine of the
 /// query's (a photon on a wall meeting the floor in a corner is not floor light).
 pub(crate) const NORMAL_COS: f32 = 0.7;
-/// The most buckets of the hashed grid: its sort runs one thread per bucket in 64-thread workgroups,
-/// within the 65535 workgroups of a dispatch.
+/// The most buckets of the hashed grid: its scan is one workgroup of 256 threads, each walking its
+/// B / 256 buckets twice, within the 65535 loop iterations lavapipe allows an invocation.
 const MAX_BUCKETS: u32 = 1 << 21;
 
 /// Mirrors `Photon` in photon.wgsl.
@@ -127,7 +127,7 @@ pub struct PhotonMap {
     count: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
-    sort: wgpu::ComputePipeline,
+    place: wgpu::ComputePipeline,
     /// The VPL slots that may hold photons start at `first` (read by the tests); `slots` of them.
     #[cfg_attr(not(test), allow(dead_code))]
     first: u32,
@@ -169,6 +169,7 @@ impl PhotonMap {
         let vpls = compute::storage_buffer(ctx, "photon map light-path vertices", vpl_bytes);
         let light_paths = LightPaths::new(setup, &vpls, 1, slots, settings.depth, layout.as_ref())?;
         let photons = compute::storage_buffer(ctx, "photon map photons", photon_bytes);
+        let keys = compute::storage_buffer(ctx, "photon map keys", u64::from(capacity) * 4);
         let grid = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("photon map grid"),
             size: u64::from(2 * buckets + 1) * 4,
@@ -194,6 +195,7 @@ impl PhotonMap {
                 storage_buffer_entry(1, false),
                 storage_buffer_entry(2, false),
                 uniform_entry(3),
+                storage_buffer_entry(4, false),
             ],
         );
         let group = compute::bind_group(
@@ -205,6 +207,7 @@ impl PhotonMap {
                 photons.as_entire_binding(),
                 grid.as_entire_binding(),
                 build.as_entire_binding(),
+                keys.as_entire_binding(),
             ],
         );
         let (_, scene_radius) = scene_sphere(setup.scene);
@@ -220,7 +223,7 @@ impl PhotonMap {
             count: pipeline("count_photons")?,
             scan: pipeline("scan_buckets")?,
             scatter: pipeline("scatter_photons")?,
-            sort: pipeline("sort_buckets")?,
+            place: pipeline("place_photons")?,
             vpls,
             photons,
             grid,
@@ -244,7 +247,7 @@ impl PhotonMap {
             compute::dispatch(encoder, "photon count", &self.count, &groups, per_slot);
             compute::dispatch(encoder, "photon bucket scan", &self.scan, &groups, [1, 1, 1]);
             compute::dispatch(encoder, "photon scatter", &self.scatter, &groups, per_slot);
-            compute::dispatch(encoder, "photon bucket sort", &self.sort, &groups, [self.buckets / 64, 1, 1]);
+            compute::dispatch(encoder, "photon placement", &self.place, &groups, per_slot);
         })?;
         Ok(())
     }
