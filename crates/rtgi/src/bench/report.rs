@@ -342,7 +342,12 @@ fn provenance(results: &BenchResults) -> String {
     let adapters: Vec<String> = results
         .adapters
         .iter()
-        .map(|a| format!("{} ({} {}, {} {})", a.name, a.backend, a.device_type, a.driver, a.driver_info))
+        .map(|a| {
+            let limit = a.loop_iteration_limit.map_or(String::new(), |n| {
+                format!("; it stops a shader invocation's loops after {n} iterations")
+            });
+            format!("{} ({} {}, {} {}{limit})", a.name, a.backend, a.device_type, a.driver, a.driver_info)
+        })
         .collect();
     format!(
         "rtgi {} at commit {}; adapter {}; {} measured frames per cell after one warm-up frame, the first {} compared with the reference; shards {}",

@@ -154,6 +154,10 @@ pub struct AdapterSummary {
     pub device_type: String,
     pub driver: String,
     pub driver_info: String,
+    /// Loop iterations the driver lets one shader invocation run in all, where it stops them
+    /// (`kernel::loop_iteration_limit`: lavapipe's 65535): a pass that needs more computes less there.
+    #[serde(default)]
+    pub loop_iteration_limit: Option<u32>,
 }
 
 /// Memory in use: the process's resident set and wgpu's own count of GPU objects and bytes.
@@ -290,8 +294,9 @@ impl GpuContext {
                         device_type: format!("{:?}", info.device_type),
                         driver: info.driver.clone(),
                         driver_info: info.driver_info.clone(),
+                        loop_iteration_limit: None,
                     };
-                    return Ok(GpuContext {
+                    let mut ctx = GpuContext {
                         instance,
                         adapter,
                         device,
@@ -299,7 +304,9 @@ impl GpuContext {
                         summary,
                         has_timestamps,
                         shader_compilations: Default::default(),
-                    });
+                    };
+                    ctx.summary.loop_iteration_limit = super::kernel::loop_iteration_limit(&ctx)?;
+                    return Ok(ctx);
                 }
                 Err(message) => {
                     let info = adapter.get_info();

@@ -147,6 +147,41 @@ pub fn keep_busy(ctx: &GpuContext, duration: std::time::Duration) -> Result<(), 
     Ok(())
 }
 
+/// Loops as long as `input[0]`, then `input[1]`, and stores how many iterations each ran.
+const LOOP_PROBE_KERNEL: &str = "@group(0) @binding(0) var<storage, read> input: array<u32>;
+@group(0) @binding(1) var<storage, read_write> output: array<f32>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    var first = 0u;
+    for (var i = 0u; i < input[0]; i++) {
+        first += 1u;
+    }
+    var second = 0u;
+    for (var i = 0u; i < input[1]; i++) {
+        second += 1u;
+    }
+    if id.x == 0u {
+        output[0] = f32(first);
+        output[1] = f32(second);
+    }
+}";
+
+/// Iterations of the two loops of an invocation asked to run `first` then `second` iterations.
+pub fn loop_probe(ctx: &GpuContext, first: u32, second: u32) -> Result<[u32; 2], GpuError> {
+    let out = run_kernel(ctx, "loop probe", LOOP_PROBE_KERNEL, bytemuck::cast_slice(&[first, second]), 1, 2)?;
+    Ok([out[0] as u32, out[1] as u32])
+}
+
+/// The loop iterations the driver lets one invocation run in all, if it stops them: lavapipe
+/// (llvmpipe's gallivm) ends every loop of an invocation once 65535 iterations have run, counted
+/// over all its loops together, without error, so a longer shader silently computes less. `None`
+/// where a million iterations run (a hardware driver).
+pub fn loop_iteration_limit(ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
+    const ASKED: u32 = 1 << 20;
+    let [ran, _] = loop_probe(ctx, ASKED, 0)?;
+    Ok((ran < ASKED).then_some(ran))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -189,5 +224,26 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
                 assert!(d.min(1.0 - d) < 1e-6, "dim {dim} index {index} rotated: {got} vs {rotated}");
             }
         }
+    }
+
+    /// Where the driver stops loops, it stops them at one count shared by all of an invocation's loops
+    /// (so a pass's budget is its loops' sum), and loops within it run in full.
+    #[test]
+    fn loop_limits_are_per_invocation_and_shared_by_its_loops() {
+        let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+        let limit = loop_iteration_limit(&ctx).expect("probe");
+        eprintln!("{}: loop iteration limit {limit:?}", ctx.summary.name);
+        let Some(limit) = limit else {
+            assert_eq!(loop_probe(&ctx, 100_000, 100_000).expect("probe"), [100_000, 100_000]);
+            return;
+        };
+        // Measured on lavapipe: 65535 (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS).
+        assert!(limit >= 65535, "{limit}");
+        let half = limit / 2;
+        assert_eq!(loop_probe(&ctx, half, half).expect("probe"), [half, half]);
+        // Measured on lavapipe: [40000, 25534]: the first loop's exit test counts as one iteration.
+        let [first, second] = loop_probe(&ctx, half + 5000, half + 5000).expect("probe");
+        assert_eq!(first, half + 5000);
+        assert!(second < half + 5000 && first + second + 1 >= limit, "{first} + {second} against {limit}");
     }
 }
