@@ -49,6 +49,9 @@ struct CacheUniforms {
 // `photon-irradiance-cache`: the photon map (photon_map/lookup.wgsl).
 @group(2) @binding(18) var<storage, read> photons: array<Photon>;
 @group(2) @binding(19) var<storage, read> photon_grid: array<u32>;
+// `photon-irradiance-cache`'s final gather: per slot of this round's records, per hemisphere cell, the
+// radiance its ray brought (rgb) and 1 / the ray's hit distance (a), from the record-ray pass.
+@group(2) @binding(20) var<storage, read_write> gathered_cells: array<vec4f>;
 
 fn predicted_light(i: u32) -> Light {
     return next_lights[i];

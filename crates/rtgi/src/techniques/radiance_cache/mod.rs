@@ -376,6 +376,8 @@ struct PhotonPlacement {
     detect: wgpu::ComputePipeline,
     compact: wgpu::ComputePipeline,
     record: wgpu::ComputePipeline,
+    /// The final gather's record rays at the picked photons (`None` without a final gather).
+    rays: Option<wgpu::ComputePipeline>,
     end: wgpu::ComputePipeline,
 }
 
@@ -465,6 +467,11 @@ pub(crate) struct RadianceCache {
     detect_pipeline: wgpu::ComputePipeline,
     compact_pipeline: wgpu::ComputePipeline,
     record_pipeline: wgpu::ComputePipeline,
+    /// `photon-irradiance-cache`'s final gather: the record rays, one invocation each, before the
+    /// record pass (`None` where the record pass traces its own rays or has none).
+    record_rays_pipeline: Option<wgpu::ComputePipeline>,
+    /// Their results (16 bytes when unused).
+    _gathered_cells: wgpu::Buffer,
     shade_pipeline: wgpu::ComputePipeline,
     uniforms: wgpu::Buffer,
     uniforms_written: CacheUniforms,
@@ -548,6 +555,7 @@ fn cache_defines(
         .f32("MAX_GATHER_RADII", MAX_GATHER_RADII)
         .u32("PHOTON_CANDIDATES", PHOTON_CANDIDATES)
         .u32("PHOTON_PICKS", PHOTON_PICKS)
+        .u32("RAY_THREADS", RAY_THREADS)
         .f32("PLACEMENT_CELL", photon_map.map_or(1.0, |m| PLACEMENT_CELL_RADII * m.radius))
         .f32("ACCURACY", p.float("accuracy") as f32)
         .f32("GLOSSY_ACCURACY", p.float("glossy_accuracy") as f32)
@@ -572,6 +580,9 @@ fn cache_defines(
         .u32("MAX_LIFESPAN", temporal.map_or(1, |t| t.max_lifespan))
         .u32("NEXT_CELLS", if temporal.is_some() { cells.0 * cells.1 } else { 1 })
 }
+
+/// Invocations per workgroup of the final gather's record-ray pass.
+const RAY_THREADS: u32 = 64;
 
 /// A photon-density record gathers within at most this many photon radii (its query reads up to
 /// (MAX_GATHER_RADII + 1)³ grid cells).
@@ -699,7 +710,8 @@ impl RadianceCache {
         let new_pixels = storage("radiance cache new pixels", u64::from(per_frame) * 4);
         let record_dispatch = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("radiance cache record dispatch"),
-            size: 16,
+            // `RecordDispatch` of place.wgsl: the record pass's workgroups, then the record rays'.
+            size: 32,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
             mapped_at_creation: false,
         });
@@ -712,6 +724,15 @@ impl RadianceCache {
         let no_photons =
             storage("radiance cache no photons", size_of::<super::photon_map::GpuPhoton>() as u64);
         let no_photon_grid = storage("radiance cache no photon grid", 8);
+        // The final gather's record rays, a round's worth (at most the frame's record budget).
+        let final_gather = photon_map.is_some() && !photon_records(p);
+        let gathered_bytes =
+            if final_gather { u64::from(per_frame) * u64::from(cells.0 * cells.1) * 16 } else { 16 };
+        ctx.check_storage_size(
+            "the photon cache's final-gather rays (lower records_per_frame or hemisphere_samples)",
+            gathered_bytes,
+        )?;
+        let gathered_cells = storage("radiance cache gathered cells", gathered_bytes);
 
         let rw = wgpu::StorageTextureAccess::ReadWrite;
         let cache_layout = compute::layout(
@@ -738,6 +759,7 @@ impl RadianceCache {
                 storage_buffer_entry(17, true),
                 storage_buffer_entry(18, true),
                 storage_buffer_entry(19, true),
+                storage_buffer_entry(20, false),
             ],
         );
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
@@ -768,6 +790,7 @@ impl RadianceCache {
                 mesh_starts.as_entire_binding(),
                 photon_map.as_ref().map_or(&no_photons, |m| &m.photons).as_entire_binding(),
                 photon_map.as_ref().map_or(&no_photon_grid, |m| &m.grid).as_entire_binding(),
+                gathered_cells.as_entire_binding(),
             ],
         );
         let dispatch_layout =
@@ -798,6 +821,10 @@ impl RadianceCache {
         let splat_pipeline = pipeline("radiance cache splat", splat, "splat", &groups)?;
         let detect_pipeline = pipeline("radiance cache miss detection", place, "detect_misses", &groups)?;
         let record_pipeline = pipeline("radiance cache records", RECORD_WGSL, "compute_record", &groups)?;
+        let rays_pipeline = |name: &str, entry: &str| {
+            final_gather.then(|| pipeline(name, RECORD_WGSL, entry, &groups)).transpose()
+        };
+        let record_rays_pipeline = rays_pipeline("radiance cache record rays", "trace_record_rays")?;
         let shade_pipeline =
             pipeline("radiance cache shading", include_str!("shade.wgsl"), "shade", &groups)?;
         // The compaction (and temporal mode's refresh dispatch) alone write the record pass's dispatch
@@ -811,6 +838,7 @@ impl RadianceCache {
                 detect: pipeline("photon placement misses", place, "detect_photon_misses", &groups)?,
                 compact: pipeline("photon placement compaction", place, "compact_photons", &with_dispatch)?,
                 record: pipeline("photon placement records", RECORD_WGSL, "compute_photon_record", &groups)?,
+                rays: rays_pipeline("photon placement record rays", "trace_photon_record_rays")?,
                 end: pipeline("photon placement end", place, "end_photon_placement", &groups)?,
             })
         } else {
@@ -870,6 +898,8 @@ impl RadianceCache {
             detect_pipeline,
             compact_pipeline,
             record_pipeline,
+            record_rays_pipeline,
+            _gathered_cells: gathered_cells,
             shade_pipeline,
             uniforms,
             uniforms_written,
@@ -936,7 +966,7 @@ impl RadianceCache {
                 compute::dispatch(encoder, "photon misses", &placement.detect, &groups, [candidates, 1, 1]);
                 compute::dispatch(encoder, "photon picks", &placement.compact, &with_dispatch, [1, 1, 1]);
             })?;
-            self.compute_picked_records(fc, profiler, &placement.record)?;
+            self.compute_picked_records(fc, profiler, placement.rays.as_ref(), &placement.record)?;
         }
         profiler.pass(fc.ctx, "photon placement", |encoder| {
             compute::dispatch(encoder, "photon placement end", &placement.end, &groups, [1, 1, 1]);
@@ -965,20 +995,33 @@ impl RadianceCache {
                 [1, 1, 1],
             );
         })?;
-        self.compute_picked_records(fc, profiler, &self.record_pipeline)?;
+        self.compute_picked_records(fc, profiler, self.record_rays_pipeline.as_ref(), &self.record_pipeline)?;
         self.splat(fc, profiler)
     }
 
     /// The record pass over the round's picks (`pipeline`: at pixels or at photons), as many workgroups
-    /// as the compaction wrote into the record dispatch.
+    /// as the compaction wrote into the record dispatch, after the final gather's record rays (`rays`).
     fn compute_picked_records(
         &self,
         fc: &FrameContext,
         profiler: &mut Profiler,
+        rays: Option<&wgpu::ComputePipeline>,
         pipeline: &wgpu::ComputePipeline,
     ) -> Result<(), RenderError> {
         let groups = self.groups(fc);
         profiler.pass(fc.ctx, "record computation", |encoder| {
+            if let Some(rays) = rays {
+                // `RecordDispatch.rays`.
+                let rays_offset = 16;
+                crate::gpu::dispatch::dispatch_indirect(
+                    encoder,
+                    "record rays",
+                    rays,
+                    &groups,
+                    &self.record_dispatch,
+                    rays_offset,
+                );
+            }
             crate::gpu::dispatch::dispatch_indirect(
                 encoder,
                 "record computation",

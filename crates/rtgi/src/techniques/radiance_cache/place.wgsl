@@ -45,7 +45,15 @@ fn detect_misses(@builtin(global_invocation_id) id: vec3u) {
     atomicMax(&candidates[t], ~((level << 12u) | (local ^ scramble)));
 }
 
-@group(3) @binding(0) var<storage, read_write> record_dispatch: vec3u;
+// The workgroups of the record pass (one per record) and of the final gather's record-ray pass (one
+// invocation per ray).
+struct RecordDispatch {
+    records: vec3u,
+    _pad0: u32,
+    rays: vec3u,
+    _pad1: u32,
+}
+@group(3) @binding(0) var<storage, read_write> record_dispatch: RecordDispatch;
 
 const COMPACT_THREADS: u32 = 256u;
 var<workgroup> partial: array<u32, COMPACT_THREADS>;
@@ -125,7 +133,8 @@ fn compact_picks(thread: u32, tiles: u32, photon_round: bool) {
         } else {
             state.iteration += 1u;
         }
-        record_dispatch = vec3u(slots, 1u, 1u);
+        record_dispatch.records = vec3u(slots, 1u, 1u);
+        record_dispatch.rays = vec3u(slots, (SAMPLES_THETA * SAMPLES_PHI + RAY_THREADS - 1u) / RAY_THREADS, 1u);
     }
 }
 

@@ -131,64 +131,117 @@ fn cell_of(local: vec3f) -> u32 {
     return cell_index(j, c);
 }
 
+// A cell's ray: where it hits (`hit.t` FLT_MAX where it leaves the scene), the surface there seen from
+// the record, whether the ray met its front and where that surface's rays leave from. `rng` continues
+// with the hit's shading.
+struct CellRay {
+    hit: Hit,
+    surface: GSurface,
+    front: bool,
+    origin: vec3f,
+}
+
+fn trace_cell_ray(rs: RecordSurface, cell: u32, rng: ptr<function, Rng>) -> CellRay {
+    let dir = local_to_world(cell_direction(cell, rng), rs.normal);
+    var ray: CellRay;
+    ray.hit = trace_closest(Ray(rs.origin, dir), 0.0, FLT_MAX);
+    if ray.hit.t < FLT_MAX {
+        ray.surface = hit_gsurface(surface_at(ray.hit.triangle, ray.hit.u, ray.hit.v, dir), -dir, ray.hit.t);
+        ray.front = !hits_back_face(ray.hit.triangle, ray.hit.u, ray.hit.v, dir);
+        ray.origin = offset_origin(ray.surface.position, ray.surface.geometric_normal);
+    }
+    return ray;
+}
+
+fn cell_rng(rs: RecordSurface, cell: u32) -> Rng {
+    return rng_new(vec2u(record_seed(rs), cell), 0u, hash2(SEED, 0x72637264u));
+}
+
+// Outside temporal mode: the radiance arriving through a cell (rgb) and 1 / its ray's hit distance
+// (a; 0 for a ray that leaves the scene). The hit returns the direct light it reflects towards the
+// record, and in `photon-irradiance-cache` also the light that reached it after bounces, from the
+// photon map (a final gather: the photons' noise is averaged over the record's rays).
+fn traced_cell(rs: RecordSurface, cell: u32) -> vec4f {
+    var rng = cell_rng(rs, cell);
+    let ray = trace_cell_ray(rs, cell, &rng);
+    if ray.hit.t == FLT_MAX {
+        return vec4f(0.0);
+    }
+    var radiance = vec3f(0.0);
+    if ray.front {
+        let h = ray.surface;
+        radiance = direct_light(h, ray.origin, &rng, 1u, 1u, true);
+        if PHOTONS {
+            radiance += photon_radiance(h.position, h.normal, h.view, h.material);
+        }
+    }
+    return vec4f(radiance, 1.0 / max(ray.hit.t, 1e-6));
+}
+
 // Traces the cells of the record (this thread's share) into cell_radiance / cell_inverse_distance;
 // in temporal mode also predicts each hit and lands it in the z-buffer. With PHOTON_RECORDS the cells
-// come from the photon map instead (photon_record.wgsl; every thread must call it).
+// come from the photon map instead (photon_record.wgsl; every thread must call it); with PHOTONS
+// alone (the final gather) the record-ray pass traced them, one invocation per ray: a lookup reads
+// the photons of eight grid cells, a few thousand on a lit wall, and a thread with several rays would
+// run past the 65535 loop iterations lavapipe allows an invocation.
 fn trace_cells(k: u32, rs: RecordSurface, thread: u32) {
     if PHOTON_RECORDS {
         gather_photon_cells(rs, thread);
         return;
     }
+    if PHOTONS {
+        let first = (k - state.splat_begin) * CELLS;
+        for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
+            let traced = gathered_cells[first + cell];
+            cell_radiance[cell] = traced.rgb;
+            cell_inverse_distance[cell] = traced.a;
+        }
+        return;
+    }
     for (var cell = thread; cell < CELLS; cell += RECORD_THREADS) {
-        var rng = rng_new(vec2u(record_seed(rs), cell), 0u, hash2(SEED, 0x72637264u));
-        let dir = local_to_world(cell_direction(cell, &rng), rs.normal);
-        let hit = trace_closest(Ray(rs.origin, dir), 0.0, FLT_MAX);
+        if !TEMPORAL {
+            let traced = traced_cell(rs, cell);
+            cell_radiance[cell] = traced.rgb;
+            cell_inverse_distance[cell] = traced.a;
+            continue;
+        }
+        var rng = cell_rng(rs, cell);
+        let ray = trace_cell_ray(rs, cell, &rng);
         var radiance = vec3f(0.0);
         var inverse_distance = 0.0;
-        if hit.t < FLT_MAX {
-            inverse_distance = 1.0 / max(hit.t, 1e-6);
-            let h = hit_gsurface(surface_at(hit.triangle, hit.u, hit.v, dir), -dir, hit.t);
-            let front = !hits_back_face(hit.triangle, hit.u, hit.v, dir);
-            let origin = offset_origin(h.position, h.geometric_normal);
-            if TEMPORAL {
-                let motion = next_motion[mesh_of_triangle(hit.triangle)];
-                var moved = h;
-                moved.position = (motion * vec4f(h.position, 1.0)).xyz;
-                moved.normal = normalize((motion * vec4f(h.normal, 0.0)).xyz);
-                moved.geometric_normal = normalize((motion * vec4f(h.geometric_normal, 0.0)).xyz);
-                // Seen from where the rays leave, so that a hit that does not move lands in its own cell.
-                let to_record = rs.origin - moved.position;
-                moved.view = normalize(to_record);
-                // A hit that stays put under lights that stay put is lit the same next frame: shade it once.
-                let still = all(motion[0] == vec4f(1.0, 0.0, 0.0, 0.0)) && all(motion[1] == vec4f(0.0, 1.0, 0.0, 0.0))
-                    && all(motion[2] == vec4f(0.0, 0.0, 1.0, 0.0)) && all(motion[3] == vec4f(0.0, 0.0, 0.0, 1.0));
-                var predicted = vec3f(0.0);
-                if front && still && cache_uniforms.lights_move == 0u {
-                    radiance = direct_light(h, origin, &rng, 1u, 1u, true);
-                    predicted = radiance;
-                } else if front {
-                    let pair = direct_light_pair(
-                        h, moved, origin, offset_origin(moved.position, moved.geometric_normal), &rng, 1u, 1u,
-                    );
-                    radiance = pair.now;
-                    predicted = pair.next;
-                }
-                next_radiance[cell] = predicted;
-                let local = world_to_local(-to_record, rs.normal);
-                let distance = length(to_record);
-                if local.z > 0.0 && distance > 0.0 {
-                    let key = (bitcast<u32>(distance) & ~SOURCE_BITS) | cell;
-                    atomicMin(&next_key[cell_of(local / distance)], key);
-                }
-            } else if front {
-                radiance = direct_light(h, origin, &rng, 1u, 1u, true);
-                // `photon-irradiance-cache`: the light that reached the hit after bounces, from the
-                // photon map (a final gather: the photons' noise is averaged over the record's rays).
-                if PHOTONS {
-                    radiance += photon_radiance(h.position, h.normal, h.view, h.material);
-                }
+        if ray.hit.t < FLT_MAX {
+            inverse_distance = 1.0 / max(ray.hit.t, 1e-6);
+            let h = ray.surface;
+            let motion = next_motion[mesh_of_triangle(ray.hit.triangle)];
+            var moved = h;
+            moved.position = (motion * vec4f(h.position, 1.0)).xyz;
+            moved.normal = normalize((motion * vec4f(h.normal, 0.0)).xyz);
+            moved.geometric_normal = normalize((motion * vec4f(h.geometric_normal, 0.0)).xyz);
+            // Seen from where the rays leave, so that a hit that does not move lands in its own cell.
+            let to_record = rs.origin - moved.position;
+            moved.view = normalize(to_record);
+            // A hit that stays put under lights that stay put is lit the same next frame: shade it once.
+            let still = all(motion[0] == vec4f(1.0, 0.0, 0.0, 0.0)) && all(motion[1] == vec4f(0.0, 1.0, 0.0, 0.0))
+                && all(motion[2] == vec4f(0.0, 0.0, 1.0, 0.0)) && all(motion[3] == vec4f(0.0, 0.0, 0.0, 1.0));
+            var predicted = vec3f(0.0);
+            if ray.front && still && cache_uniforms.lights_move == 0u {
+                radiance = direct_light(h, ray.origin, &rng, 1u, 1u, true);
+                predicted = radiance;
+            } else if ray.front {
+                let pair = direct_light_pair(
+                    h, moved, ray.origin, offset_origin(moved.position, moved.geometric_normal), &rng, 1u, 1u,
+                );
+                radiance = pair.now;
+                predicted = pair.next;
             }
-        } else if TEMPORAL {
+            next_radiance[cell] = predicted;
+            let local = world_to_local(-to_record, rs.normal);
+            let distance = length(to_record);
+            if local.z > 0.0 && distance > 0.0 {
+                let key = (bitcast<u32>(distance) & ~SOURCE_BITS) | cell;
+                atomicMin(&next_key[cell_of(local / distance)], key);
+            }
+        } else {
             atomicMin(&next_key[cell], BACKGROUND);
         }
         cell_radiance[cell] = radiance;
@@ -375,20 +428,33 @@ fn build_record(k: u32, rs: RecordSurface, thread: u32) {
     }
 }
 
-// A new record at the pixel the placement picked for slot `group.x`.
-@compute @workgroup_size(RECORD_THREADS, 1, 1)
-fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
-    let slot = group.x;
-    let k = state.splat_begin + slot;
+// The surface of the record the pixel placement picked for `slot`.
+fn pixel_record_surface(slot: u32) -> RecordSurface {
     let packed = new_pixels[slot];
     let pixel = vec2u(packed & 0xffffu, packed >> 16u);
     let s = load_gsurface(pixel);
     let footprint = s.distance
         * length(primary_ray_through(vec2f(pixel) + vec2f(1.5, 0.5)) - primary_ray_through(vec2f(pixel) + 0.5));
-    let rs = RecordSurface(
+    return RecordSurface(
         s.position, s.normal, s.geometric_normal, gsurface_ray_origin(s), is_glossy(s.material), footprint,
     );
-    build_record(k, rs, thread);
+}
+
+// The surface of the record the photon placement picked for `slot` (diffuse; its zone no smaller
+// than the photon radius: there is no view to size it by, so its footprint is the photon radius over
+// MIN_ZONE_PIXELS).
+fn photon_record_surface(slot: u32) -> RecordSurface {
+    let p = photons[new_pixels[slot]];
+    return RecordSurface(
+        p.position, p.normal, p.normal, offset_origin(p.position, p.normal), false,
+        PHOTON_RADIUS / max(MIN_ZONE_PIXELS, 1.0),
+    );
+}
+
+// A new record at the pixel the placement picked for slot `group.x`.
+@compute @workgroup_size(RECORD_THREADS, 1, 1)
+fn compute_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
+    build_record(state.splat_begin + group.x, pixel_record_surface(group.x), thread);
 }
 
 // Temporal mode: an expired record recomputed where it is (the thesis's replacement at a fixed
@@ -409,16 +475,31 @@ fn refresh_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation
     build_record(k, rs, thread);
 }
 
-// A record at the photon the photon placement picked for slot `group.x` (diffuse; its zone no
-// smaller than the photon radius: there is no view to size it by, so its footprint is the photon
-// radius over MIN_ZONE_PIXELS).
+// A record at the photon the photon placement picked for slot `group.x`.
 @compute @workgroup_size(RECORD_THREADS, 1, 1)
 fn compute_photon_record(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
-    let slot = group.x;
-    let p = photons[new_pixels[slot]];
-    let rs = RecordSurface(
-        p.position, p.normal, p.normal, offset_origin(p.position, p.normal), false,
-        PHOTON_RADIUS / max(MIN_ZONE_PIXELS, 1.0),
-    );
-    build_record(state.splat_begin + slot, rs, thread);
+    build_record(state.splat_begin + group.x, photon_record_surface(group.x), thread);
+}
+
+// The final gather's record rays (PHOTONS without PHOTON_RECORDS), before the record pass: one
+// invocation per ray, the record's slot `group.x`, its cell group.y × RAY_THREADS + thread.
+
+fn trace_record_ray(slot: u32, cell: u32, rs: RecordSurface) {
+    gathered_cells[slot * CELLS + cell] = traced_cell(rs, cell);
+}
+
+@compute @workgroup_size(RAY_THREADS, 1, 1)
+fn trace_record_rays(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
+    let cell = group.y * RAY_THREADS + thread;
+    if cell < CELLS {
+        trace_record_ray(group.x, cell, pixel_record_surface(group.x));
+    }
+}
+
+@compute @workgroup_size(RAY_THREADS, 1, 1)
+fn trace_photon_record_rays(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) thread: u32) {
+    let cell = group.y * RAY_THREADS + thread;
+    if cell < CELLS {
+        trace_record_ray(group.x, cell, photon_record_surface(group.x));
+    }
 }
