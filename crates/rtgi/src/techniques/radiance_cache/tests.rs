@@ -68,6 +68,17 @@ fn shaders_validate_and_mirror_the_host_layouts() {
                 ("photon_placed", offset_of!(CacheState, photon_placed)),
             ],
         );
+        if pass.contains("struct RecordDispatch") {
+            assert_layout(
+                &m,
+                "RecordDispatch",
+                size_of::<RecordDispatch>(),
+                &[
+                    ("records", offset_of!(RecordDispatch, records)),
+                    ("rays", offset_of!(RecordDispatch, rays)),
+                ],
+            );
+        }
         assert_layout(
             &m,
             "CacheUniforms",
