@@ -288,6 +288,17 @@ impl TemporalSettings {
     }
 }
 
+/// Mirrors `RecordDispatch` in place.wgsl: the indirect dispatch the compaction writes for the record
+/// pass (`records`) and for the final gather's record rays (`rays`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+struct RecordDispatch {
+    records: [u32; 3],
+    _pad0: u32,
+    rays: [u32; 3],
+    _pad1: u32,
+}
+
 /// Mirrors `CacheUniforms` in bindings.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
@@ -710,8 +721,7 @@ impl RadianceCache {
         let new_pixels = storage("radiance cache new pixels", u64::from(per_frame) * 4);
         let record_dispatch = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("radiance cache record dispatch"),
-            // `RecordDispatch` of place.wgsl: the record pass's workgroups, then the record rays'.
-            size: 32,
+            size: size_of::<RecordDispatch>() as u64,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
             mapped_at_creation: false,
         });
@@ -1011,8 +1021,7 @@ impl RadianceCache {
         let groups = self.groups(fc);
         profiler.pass(fc.ctx, "record computation", |encoder| {
             if let Some(rays) = rays {
-                // `RecordDispatch.rays`.
-                let rays_offset = 16;
+                let rays_offset = std::mem::offset_of!(RecordDispatch, rays) as u64;
                 crate::gpu::dispatch::dispatch_indirect(
                     encoder,
                     "record rays",

@@ -20,18 +20,46 @@
 
 const HULL_DIRECTIONS: u32 = RECORD_THREADS;
 const NO_PHOTON: u32 = 0xffffffffu;
+// A chunk's photon that is not gathered.
+const NO_CELL: u32 = 0xffffffffu;
+const CHUNK_STEPS: u32 = RECORD_THREADS / 4u;
 
-// Per direction: the photon (index into `photons`) farthest along it.
-var<workgroup> hull_extreme: array<u32, HULL_DIRECTIONS>;
-// Per thread: the photons it counted and their Σ 1/d.
-var<workgroup> photon_tally: array<vec2f, RECORD_THREADS>;
+// One chunk of RECORD_THREADS photons, four to a vector (see gather_photons): their tangent-plane
+// points and hemisphere cells (NO_CELL: not gathered). After a query the same memory holds each
+// thread's tally (photons in x, their Σ 1/d in y) and, in chunk_cell, the extreme photon of its
+// direction: the record pass has no workgroup memory to spare at its largest hemisphere.
+var<workgroup> chunk_x: array<vec4f, CHUNK_STEPS>;
+var<workgroup> chunk_y: array<vec4f, CHUNK_STEPS>;
+var<workgroup> chunk_cell: array<vec4u, CHUNK_STEPS>;
 // The second query's radius, then (R, covered area) of the record.
 var<workgroup> photon_gather: vec2f;
 
-// Photons within `radius` of the record that light it (see 2.). Every thread reads them all in the
-// same order; each tallies every RECORD_THREADS-th one, and with `full` also sums the photons of its
-// own cells (cell % RECORD_THREADS == thread, as elsewhere in the record pass) and finds the extreme
-// photon of its direction.
+// Keeps photon i if it lies farther along the thread's direction than the extreme so far (the first
+// of equals, as photons come in index order).
+fn keep_extreme(farthest: ptr<function, f32>, extreme: ptr<function, u32>, along: f32, gathered: bool, i: u32) {
+    if gathered && along > *farthest {
+        *farthest = along;
+        *extreme = i;
+    }
+}
+
+// Adds photon i to hemisphere cell `cell` if the thread owns that cell.
+fn add_to_cell(mine: bool, cell: u32, i: u32) {
+    if mine {
+        let p = photons[i];
+        let weight = p.flux.r + p.flux.g + p.flux.b;
+        cell_radiance[cell] += p.flux;
+        cell_inverse_distance[cell] += weight * (1.0 / max(p.travelled, 1e-6));
+    }
+}
+
+// Photons within `radius` of the record that light it (see 2.). lavapipe ends an invocation after
+// 65535 loop iterations, and a bright corner's query holds 10⁵ photons, so no thread reads them all:
+// the workgroup takes each bucket in chunks of RECORD_THREADS photons, one per thread, which tests
+// its photon and tallies it. With `full` the threads then scan the chunk four photons a step (a
+// sixteenth of the iterations of reading them one by one): each adds the photons of its own cells
+// (cell % RECORD_THREADS == thread, as elsewhere in the record pass) and finds the extreme photon of
+// its direction. Cells and extremes see the photons in index order, as a single reader would.
 fn gather_photons(rs: RecordSurface, radius: f32, thread: u32, full: bool) {
     let lo = photon_cell(rs.position - vec3f(radius));
     let hi = photon_cell(rs.position + vec3f(radius));
@@ -41,50 +69,61 @@ fn gather_photons(rs: RecordSurface, radius: f32, thread: u32, full: bool) {
     var farthest = -FLT_MAX;
     var extreme = NO_PHOTON;
     var tally = vec2f(0.0);
-    var seen = 0u;
     for (var z = lo.z; z <= hi.z; z++) {
         for (var y = lo.y; y <= hi.y; y++) {
             for (var x = lo.x; x <= hi.x; x++) {
                 let cell = vec3i(x, y, z);
                 let bucket = photon_bucket(cell);
                 let end = photon_grid[bucket + 1u];
-                for (var i = photon_grid[bucket]; i < end; i++) {
-                    let p = photons[i];
-                    let offset = p.position - rs.position;
-                    // A bucket holds every cell hashing to it: each photon is read with its own cell.
-                    if dot(offset, offset) >= r2 || dot(p.normal, rs.normal) <= PHOTON_NORMAL_COS
-                        || any(photon_cell(p.position) != cell) {
-                        continue;
-                    }
-                    let arriving = world_to_local(p.incoming, rs.normal);
-                    if arriving.z <= 0.0 {
-                        continue;
-                    }
-                    let inverse = 1.0 / max(p.travelled, 1e-6);
-                    if seen % RECORD_THREADS == thread {
-                        tally += vec2f(1.0, inverse);
-                    }
-                    seen++;
-                    if full {
-                        let c = cell_of(arriving);
-                        if c % RECORD_THREADS == thread {
-                            let weight = p.flux.r + p.flux.g + p.flux.b;
-                            cell_radiance[c] += p.flux;
-                            cell_inverse_distance[c] += weight * inverse;
-                        }
-                        let along = dot(world_to_local(offset, rs.normal).xy, axis);
-                        if along > farthest {
-                            farthest = along;
-                            extreme = i;
+                for (var base = photon_grid[bucket]; base < end; base += RECORD_THREADS) {
+                    let i = base + thread;
+                    var hemisphere_cell = NO_CELL;
+                    var q = vec2f(0.0);
+                    if i < end {
+                        let p = photons[i];
+                        let offset = p.position - rs.position;
+                        let arriving = world_to_local(p.incoming, rs.normal);
+                        // A bucket holds every cell hashing to it: each photon is read with its own cell.
+                        if dot(offset, offset) < r2 && dot(p.normal, rs.normal) > PHOTON_NORMAL_COS
+                            && all(photon_cell(p.position) == cell) && arriving.z > 0.0 {
+                            tally += vec2f(1.0, 1.0 / max(p.travelled, 1e-6));
+                            hemisphere_cell = cell_of(arriving);
+                            q = world_to_local(offset, rs.normal).xy;
                         }
                     }
+                    if !full {
+                        continue;
+                    }
+                    chunk_x[thread / 4u][thread % 4u] = q.x;
+                    chunk_y[thread / 4u][thread % 4u] = q.y;
+                    chunk_cell[thread / 4u][thread % 4u] = hemisphere_cell;
+                    workgroupBarrier();
+                    for (var s = 0u; s < CHUNK_STEPS; s++) {
+                        let cells = chunk_cell[s];
+                        let gathered = cells != vec4u(NO_CELL);
+                        let along = chunk_x[s] * axis.x + chunk_y[s] * axis.y;
+                        let first = base + 4u * s;
+                        keep_extreme(&farthest, &extreme, along.x, gathered.x, first);
+                        keep_extreme(&farthest, &extreme, along.y, gathered.y, first + 1u);
+                        keep_extreme(&farthest, &extreme, along.z, gathered.z, first + 2u);
+                        keep_extreme(&farthest, &extreme, along.w, gathered.w, first + 3u);
+                        let mine = gathered & (cells % RECORD_THREADS == vec4u(thread));
+                        if any(mine) {
+                            add_to_cell(mine.x, cells.x, first);
+                            add_to_cell(mine.y, cells.y, first + 1u);
+                            add_to_cell(mine.z, cells.z, first + 2u);
+                            add_to_cell(mine.w, cells.w, first + 3u);
+                        }
+                    }
+                    workgroupBarrier();
                 }
             }
         }
     }
-    photon_tally[thread] = tally;
+    chunk_x[thread / 4u][thread % 4u] = tally.x;
+    chunk_y[thread / 4u][thread % 4u] = tally.y;
     if full {
-        hull_extreme[thread] = extreme;
+        chunk_cell[thread / 4u][thread % 4u] = extreme;
     }
 }
 
@@ -92,7 +131,7 @@ fn gather_photons(rs: RecordSurface, radius: f32, thread: u32, full: bool) {
 fn photon_totals() -> vec2f {
     var sum = vec2f(0.0);
     for (var t = 0u; t < RECORD_THREADS; t++) {
-        sum += photon_tally[t];
+        sum += vec2f(chunk_x[t / 4u][t % 4u], chunk_y[t / 4u][t % 4u]);
     }
     return sum;
 }
@@ -111,7 +150,7 @@ fn extreme_polygon(rs: RecordSurface) -> vec2f {
     var first_q = vec2f(0.0);
     var previous_q = vec2f(0.0);
     for (var t = 0u; t < HULL_DIRECTIONS; t++) {
-        let e = hull_extreme[t];
+        let e = chunk_cell[t / 4u][t % 4u];
         // A vertex's run of directions may wrap past the last one back to the first.
         if e == NO_PHOTON || e == previous || e == first {
             continue;
