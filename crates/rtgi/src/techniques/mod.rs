@@ -11,6 +11,7 @@ pub mod ddgi;
 pub mod direct;
 pub mod discontinuity;
 pub mod env_harmonics;
+pub mod env_projection;
 #[cfg(test)]
 pub(crate) mod fixture;
 pub mod igi;
@@ -18,6 +19,7 @@ pub mod light_paths;
 pub mod lpv;
 pub mod path;
 pub mod photon_map;
+pub mod prt;
 pub mod radiance_cache;
 pub mod rsm;
 pub mod vxgi;
@@ -250,6 +252,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         radiance_cache::TEMPORAL_INFO,
         radiance_cache::PHOTON_INFO,
         env_harmonics::INFO,
+        prt::INFO,
     ]
 }
 

@@ -22,8 +22,9 @@ use crate::params::{ParamKind, ParamSpec};
 use crate::shaders::Defines;
 
 use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL};
-use super::compute::{self, DispatchSlots, storage_texture_entry};
+use super::compute::{self, storage_texture_entry};
 use super::direct::{DIRECT_PARAMS, DirectLighting, DirectOutput, LightSamples};
+use super::env_projection::{EnvironmentProjection, PROJECTION_BANDS_PARAM};
 use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, TechniqueSetup};
 
 #[cfg(test)]
@@ -83,12 +84,7 @@ pub const PARAMS: [ParamSpec; 15] = [
         default: "9",
         doc: "roughnesses 0 … 1 the GGX tables are built at; others are interpolated linearly",
     },
-    ParamSpec {
-        name: "projection_bands",
-        kind: ParamKind::Int { min: 16, max: 2048 },
-        default: "512",
-        doc: "the environment's projection grid: equal-area bands in z × as many steps in φ",
-    },
+    PROJECTION_BANDS_PARAM,
     ParamSpec {
         name: "reference_samples",
         kind: ParamKind::Int { min: 1, max: 4096 },
@@ -129,10 +125,8 @@ fn environment_order(p: &crate::params::ParamValues) -> u32 {
     }
 }
 
-/// Invocations per workgroup of the table and projection passes.
+/// Invocations per workgroup of the fold pass.
 const WORKGROUP: u32 = 64;
-/// Samples per table texel and φ steps per projection band in one dispatch.
-const SAMPLES_PER_DISPATCH: u32 = 64;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Basis {
@@ -154,14 +148,7 @@ struct Fold {
 struct Harmonics {
     tables: BrdfTables,
     fold: Option<Fold>,
-    partial: wgpu::ComputePipeline,
-    reduce: wgpu::ComputePipeline,
-    projection_group: wgpu::BindGroup,
-    projection_slots: DispatchSlots,
-    partials: wgpu::Buffer,
-    bands: u32,
-    coefficients: u32,
-    projected: bool,
+    projection: EnvironmentProjection,
     max_workgroups: u32,
 }
 
@@ -209,7 +196,6 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     let levels = p.int("roughness_levels") as u32;
     let table_samples = p.int("table_samples") as u32;
     let bands = p.int("projection_bands") as u32;
-    let coefficients = env_order * env_order;
     let (w, h) = (setup.frame.width, setup.frame.height);
 
     // The environment is this technique's: the direct pass adds lights and emitters only.
@@ -227,8 +213,6 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     };
     let defines = shape
         .defines(Defines::new())
-        .u32("PROJECTION_BANDS", bands)
-        .u32("PHI_PER_DISPATCH", SAMPLES_PER_DISPATCH)
         .u32("REFERENCE_SAMPLES", p.int("reference_samples") as u32)
         .bool("BASIS_SAMPLED", basis == Basis::Sampled);
     let defines = setup.gpu_scene.bvh_defines(defines);
@@ -248,8 +232,10 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
                 "env-harmonics: {e}; lower table_size, roughness_levels or environment_order"
             ))
         })?;
-    let environment_sh =
-        compute::storage_buffer(ctx, "env-harmonics environment sh", 16 * u64::from(coefficients));
+    let projection =
+        harmonic.then(|| EnvironmentProjection::new(setup, "env-harmonics", env_order, bands)).transpose()?;
+    // basis=sampled projects nothing: 16 bytes stand in for the coefficients.
+    let no_projection = compute::storage_buffer(ctx, "env-harmonics no environment sh", 16);
     let rotation = constant(
         "env-harmonics rotation x90",
         bytemuck::cast_slice(&if harmonic { rotation_x90_blocks(env_order as usize) } else { Vec::new() }),
@@ -286,7 +272,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         &[
             wgpu::BindingResource::TextureView(&direct_view),
             wgpu::BindingResource::TextureView(&output_view),
-            environment_sh.as_entire_binding(),
+            projection.as_ref().map_or(&no_projection, |p| &p.coefficients).as_entire_binding(),
             rotation.as_entire_binding(),
             // basis=sampled reads no table: the 4 bytes of `folded` stand in.
             match &tables {
@@ -305,7 +291,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         &layouts(setup, &shade_layout),
     )?;
 
-    let harmonics = if let Some(tables) = tables {
+    let harmonics = if let (Some(tables), Some(projection)) = (tables, projection) {
         let fold = if basis == Basis::Hsh {
             let conversion = constant(
                 "env-harmonics conversion",
@@ -356,48 +342,10 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         } else {
             None
         };
-        let first_phis: Vec<[u32; 4]> = (0..bands.div_ceil(SAMPLES_PER_DISPATCH))
-            .map(|i| [i * SAMPLES_PER_DISPATCH, env_order, 0, 0])
-            .collect();
-        let projection_slots = DispatchSlots::new(ctx, "env-harmonics projection steps", &first_phis);
-        let partials =
-            compute::storage_buffer(ctx, "env-harmonics partial sums", 16 * u64::from(bands * coefficients));
-        let projection_layout = compute::layout(
-            ctx,
-            "env-harmonics projection",
-            &[
-                compute::storage_buffer_entry(0, false),
-                compute::storage_buffer_entry(1, false),
-                projection_slots.entry(2),
-            ],
-        );
-        let projection_group = compute::bind_group(
-            ctx,
-            "env-harmonics projection",
-            &projection_layout,
-            &[partials.as_entire_binding(), environment_sh.as_entire_binding(), projection_slots.resource()],
-        );
-        let project = |entry: &str| {
-            compute::pipeline(
-                ctx,
-                "env-harmonics projection",
-                include_str!("project.wgsl"),
-                defines.clone(),
-                entry,
-                &layouts(setup, &projection_layout),
-            )
-        };
         Some(Harmonics {
             tables,
             fold,
-            partial: project("partial")?,
-            reduce: project("reduce")?,
-            projection_group,
-            projection_slots,
-            partials,
-            bands,
-            coefficients,
-            projected: false,
+            projection,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
         })
     } else {
@@ -425,27 +373,7 @@ impl Harmonics {
                 );
             })?;
         }
-        if !self.projected {
-            profiler.pass(fc.ctx, "environment projection", |encoder| {
-                encoder.clear_buffer(&self.partials, 0, None);
-                let mut pass = crate::gpu::dispatch::compute_pass(
-                    encoder,
-                    "environment projection",
-                    &self.partial,
-                    &groups,
-                );
-                let [x, y, _] =
-                    workgroups_for(self.bands * self.coefficients, WORKGROUP, self.max_workgroups);
-                for offset in self.projection_slots.offsets() {
-                    pass.set_bind_group(2, &self.projection_group, &[offset]);
-                    pass.dispatch_workgroups(x, y, 1);
-                }
-                pass.set_pipeline(&self.reduce);
-                pass.set_bind_group(2, &self.projection_group, &[0]);
-                pass.dispatch_workgroups(self.coefficients.div_ceil(WORKGROUP), 1, 1);
-            })?;
-            self.projected = true;
-        }
+        self.projection.project(fc, profiler)?;
         Ok(())
     }
 }
@@ -468,7 +396,7 @@ impl Technique for EnvHarmonics {
         change: super::SceneChange,
     ) -> Result<bool, RenderError> {
         if let (super::SceneChange::Environment, Some(h)) = (change, self.harmonics.as_mut()) {
-            h.projected = false;
+            h.projection.invalidate();
         }
         Ok(true)
     }
@@ -485,7 +413,10 @@ impl Technique for EnvHarmonics {
         if let Some(h) = &self.harmonics {
             c.insert("brdf_table_bytes".to_string(), h.tables.shape.bytes() as f64);
             c.insert("folded_table_bytes".to_string(), h.fold.as_ref().map_or(0, |f| f.shape.bytes()) as f64);
-            c.insert("environment_coefficients_per_colour".to_string(), f64::from(h.coefficients));
+            c.insert(
+                "environment_coefficients_per_colour".to_string(),
+                f64::from(h.projection.coefficient_count()),
+            );
         }
         Ok(c)
     }

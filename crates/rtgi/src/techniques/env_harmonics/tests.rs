@@ -13,7 +13,7 @@ fn test_defines(basis: Basis) -> Defines {
     shape
         .defines(Defines::new())
         .u32("PROJECTION_BANDS", 64)
-        .u32("PHI_PER_DISPATCH", SAMPLES_PER_DISPATCH)
+        .u32("PHI_PER_DISPATCH", 64)
         .u32("REFERENCE_SAMPLES", 4)
         .bool("BASIS_SAMPLED", basis == Basis::Sampled)
         .bool("BVH_INSTANCES", false)
@@ -25,7 +25,7 @@ fn shaders_validate() {
     for basis in [Basis::Hsh, Basis::Sh, Basis::Sampled] {
         let d = test_defines(basis);
         validate("env-harmonics fold", include_str!("fold.wgsl"), &d);
-        validate("env-harmonics projection", include_str!("project.wgsl"), &d);
+        validate("env-harmonics projection", super::super::env_projection::PROJECT_WGSL, &d);
         validate("env-harmonics shade", &format!("{LOOKUP_WGSL}\n{}", include_str!("shade.wgsl")), &d);
     }
 }

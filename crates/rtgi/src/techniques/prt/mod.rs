@@ -1,0 +1,375 @@
+//! `prt`: precomputed radiance transfer for diffuse surfaces (Sloan, Kautz & Snyder 2002; seed 001).
+//! Once per geometry, every vertex gets a transfer vector: the SH projection of its clamped cosine
+//! (`transfer=unshadowed`), of its clamped cosine times its visibility of the environment
+//! (`transfer=shadowed`, rays through the shared BVH), or that plus `bounces` bounces of the
+//! environment's light between the surfaces (`transfer=interreflected`, RGB), order² coefficients
+//! per channel (transfer.wgsl). Once per
+//! environment, the environment is projected into SH on the GPU (the shared `env_projection`). Per
+//! frame, every pixel's irradiance from the environment is the dot product of the two, its vertices'
+//! transfer interpolated at the pixel (shade.wgsl); lights and emitters come from the direct pass as
+//! in `direct`.
+//!
+//! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
+//! corners, so shadows need tessellated meshes (as in the paper). Not built yet (issue 14): glossy
+//! transfer matrices, Haar wavelets, per-texel transfer, environment
+//! rotation and the on-disk cache of transfer vectors.
+
+use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::dispatch::workgroups_for;
+use crate::gpu::{BufferBuilder, GpuContext, Profiler};
+use crate::params::{ParamKind, ParamSpec, ParamValues};
+use crate::shaders::Defines;
+
+use super::compute::{self, DispatchSlots, storage_texture_entry};
+use super::direct::{DIRECT_PARAMS, DirectLighting, DirectOutput, LightSamples};
+use super::env_projection::{EnvironmentProjection, PROJECTION_BANDS_PARAM};
+use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, TechniqueSetup};
+
+#[cfg(test)]
+mod tests;
+
+/// What the transfer vectors hold.
+pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected"];
+
+/// The SH orders transfer may have: the shared harmonics (common/hsh.wgsl) go to 10.
+const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
+
+/// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
+/// own.
+pub const PARAMS: [ParamSpec; 12] = [
+    DIRECT_PARAMS[0],
+    DIRECT_PARAMS[1],
+    DIRECT_PARAMS[2],
+    DIRECT_PARAMS[3],
+    DIRECT_PARAMS[4],
+    DIRECT_PARAMS[6],
+    DIRECT_PARAMS[7],
+    ParamSpec {
+        name: "transfer",
+        kind: ParamKind::Choice(TRANSFERS),
+        default: "shadowed",
+        doc: "shadowed: clamped cosine × the vertex's visibility of the environment (rays through the \
+              BVH); unshadowed: the clamped cosine alone; interreflected: shadowed plus `bounces` \
+              bounces of the environment's light between the surfaces (RGB: 3 × order² per vertex)",
+    },
+    ParamSpec {
+        name: "bounces",
+        kind: ParamKind::Int { min: 1, max: 16 },
+        default: "2",
+        doc: "bounces of interreflected transfer (transfer=interreflected only)",
+    },
+    ParamSpec {
+        name: "order",
+        kind: ParamKind::Int { min: 1, max: MAX_ORDER },
+        default: "4",
+        doc: "SH bands of transfer and environment (order² coefficients per vertex; Sloan et al.: 4-5)",
+    },
+    ParamSpec {
+        name: "transfer_samples",
+        kind: ParamKind::Int { min: 1, max: 65536 },
+        default: "256",
+        doc: "cosine-distributed directions per vertex of the precomputation",
+    },
+    PROJECTION_BANDS_PARAM,
+];
+
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "prt",
+    description: "precomputed radiance transfer: per-vertex SH transfer (unshadowed or shadowed) dotted \
+                  with the environment's SH (Sloan, Kautz & Snyder 2002)",
+    params: &PARAMS,
+    needs: FrameNeeds { gbuffer: true },
+    features: &[super::ACCUMULATES_OUTPUT],
+    motion: super::Motion::Restarts,
+    validate: super::independent_params,
+    create,
+};
+
+/// Invocations per workgroup of the transfer pass.
+const WORKGROUP: u32 = 64;
+/// Directions one transfer dispatch adds per vertex (`BATCH` of transfer.wgsl).
+const BATCH: u32 = 32;
+
+/// Mirrors `Batch` of transfer.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Batch {
+    first_sample: u32,
+    order: u32,
+}
+
+/// The transfer vectors and the passes that compute them.
+struct Transfer {
+    buffer: wgpu::Buffer,
+    accumulate: wgpu::ComputePipeline,
+    interreflect: wgpu::ComputePipeline,
+    add_bounce: wgpu::ComputePipeline,
+    /// The passes' resources with bounce buffer 0 as the previous bounce and 1 as this one, and the
+    /// other way round.
+    groups: [wgpu::BindGroup; 2],
+    /// Interreflection's bounce increments (4 bytes each without interreflection).
+    bounce_buffers: [wgpu::Buffer; 2],
+    batches: DispatchSlots,
+    vertices: u32,
+    /// Floats per vertex: order² coefficients × colour channels.
+    floats_per_vertex: u32,
+    bounces: u32,
+    /// The geometry the vectors were computed for; `None` before the first frame.
+    computed_for: Option<u64>,
+}
+
+struct Prt {
+    direct: DirectLighting,
+    projection: EnvironmentProjection,
+    transfer: Transfer,
+    shade: wgpu::ComputePipeline,
+    shade_group: wgpu::BindGroup,
+    samples: u32,
+    max_workgroups: u32,
+}
+
+fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
+    Ok(Box::new(Prt::new(setup)?))
+}
+
+impl Prt {
+    fn new(setup: &TechniqueSetup) -> Result<Prt, RenderError> {
+        let ctx = setup.ctx;
+        let p: &ParamValues = setup.params;
+        let order = p.int("order") as u32;
+        let samples = p.int("transfer_samples") as u32;
+        let count = order * order;
+        let interreflected = p.choice("transfer") == "interreflected";
+        let channels: u32 = if interreflected { 3 } else { 1 };
+        let bounces = if interreflected { p.int("bounces") as u32 } else { 0 };
+        let vertices = u32::try_from(setup.scene.vertex_count())
+            .map_err(|_| RenderError::InvalidSettings("prt: the scene has more than 2³² vertices".into()))?;
+        let (w, h) = (setup.frame.width, setup.frame.height);
+
+        // The environment is this technique's: the direct pass adds lights and emitters only.
+        let direct_target = compute::storage_texture(ctx, "prt direct", w, h, OUTPUT_FORMAT);
+        let light_samples = LightSamples { area: p.int("area_samples") as u32, environment: 0 };
+        let direct =
+            DirectLighting::with_samples(setup, &direct_target, DirectOutput::Replace, light_samples)?;
+        let projection = EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32)?;
+
+        let bytes = u64::from(vertices.max(1)) * u64::from(count * channels) * 4;
+        let too_large = |e| {
+            RenderError::InvalidSettings(format!(
+                "prt: {e}; lower order ({channels} × order² coefficients per vertex)"
+            ))
+        };
+        let storage =
+            |label, bytes| BufferBuilder::new(label, bytes).storage().copy().build(ctx).map_err(too_large);
+        let buffer = storage("prt transfer vectors", bytes)?;
+        let bounce_bytes = if interreflected { bytes } else { 4 };
+        let bounce_buffers = [storage("prt bounce a", bounce_bytes)?, storage("prt bounce b", bounce_bytes)?];
+        let defines = setup
+            .gpu_scene
+            .bvh_defines(Defines::new())
+            .u32("VERTEX_COUNT", vertices)
+            .u32("TRANSFER_SAMPLES", samples)
+            .u32("CHANNELS", channels)
+            .bool("SHADOWED", p.choice("transfer") != "unshadowed");
+        let layouts = |own| [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, own];
+
+        let batch_values: Vec<Batch> =
+            (0..samples.div_ceil(BATCH)).map(|i| Batch { first_sample: i * BATCH, order }).collect();
+        let batches = DispatchSlots::new(ctx, "prt transfer batches", &batch_values);
+        let transfer_layout = compute::layout(
+            ctx,
+            "prt transfer",
+            &[
+                compute::storage_buffer_entry(0, false),
+                batches.entry(1),
+                compute::storage_buffer_entry(2, true),
+                compute::storage_buffer_entry(3, false),
+            ],
+        );
+        let transfer_group = |previous: &wgpu::Buffer, this: &wgpu::Buffer| {
+            compute::bind_group(
+                ctx,
+                "prt transfer",
+                &transfer_layout,
+                &[
+                    buffer.as_entire_binding(),
+                    batches.resource(),
+                    previous.as_entire_binding(),
+                    this.as_entire_binding(),
+                ],
+            )
+        };
+        let groups = [
+            transfer_group(&bounce_buffers[0], &bounce_buffers[1]),
+            transfer_group(&bounce_buffers[1], &bounce_buffers[0]),
+        ];
+        let transfer_pipeline = |entry: &str| {
+            compute::pipeline(
+                ctx,
+                "prt transfer",
+                include_str!("transfer.wgsl"),
+                defines.clone(),
+                entry,
+                &layouts(&transfer_layout),
+            )
+        };
+        let accumulate = transfer_pipeline("accumulate")?;
+        let interreflect = transfer_pipeline("interreflect")?;
+        let add_bounce = transfer_pipeline("add_bounce")?;
+
+        let shape = BufferBuilder::with_contents("prt shape", bytemuck::cast_slice(&[order, 0, 0, 0]))
+            .usage(wgpu::BufferUsages::UNIFORM)
+            .build(ctx)?;
+        let read_only = |b: u32| compute::storage_buffer_entry(b, true);
+        let shade_layout = compute::layout(
+            ctx,
+            "prt shade",
+            &[
+                compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
+                storage_texture_entry(1, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
+                read_only(2),
+                read_only(3),
+                compute::uniform_entry(4),
+            ],
+        );
+        let (direct_view, output_view) =
+            (direct_target.create_view(&Default::default()), setup.output.create_view(&Default::default()));
+        let shade_group = compute::bind_group(
+            ctx,
+            "prt shade",
+            &shade_layout,
+            &[
+                wgpu::BindingResource::TextureView(&direct_view),
+                wgpu::BindingResource::TextureView(&output_view),
+                projection.coefficients.as_entire_binding(),
+                buffer.as_entire_binding(),
+                shape.as_entire_binding(),
+            ],
+        );
+        let shade = compute::pipeline(
+            ctx,
+            "prt shade",
+            include_str!("shade.wgsl"),
+            defines,
+            "main",
+            &layouts(&shade_layout),
+        )?;
+
+        Ok(Prt {
+            direct,
+            projection,
+            transfer: Transfer {
+                buffer,
+                accumulate,
+                interreflect,
+                add_bounce,
+                groups,
+                bounce_buffers,
+                batches,
+                vertices,
+                floats_per_vertex: count * channels,
+                bounces,
+                computed_for: None,
+            },
+            shade,
+            shade_group,
+            samples,
+            max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
+        })
+    }
+
+    /// Computes the transfer vectors unless they belong to the current geometry.
+    fn precompute(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let geometry = fc.gpu_scene.geometry_version;
+        let t = &mut self.transfer;
+        if t.computed_for == Some(geometry) {
+            return Ok(());
+        }
+        let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
+        let [x, y, _] = workgroups_for(t.vertices, WORKGROUP, self.max_workgroups);
+        let [fx, fy, _] = workgroups_for(t.vertices * t.floats_per_vertex, WORKGROUP, self.max_workgroups);
+        // A bounce's directions, batch by batch.
+        let directions = |encoder: &mut wgpu::CommandEncoder, pipeline, group: &wgpu::BindGroup| {
+            let mut pass =
+                crate::gpu::dispatch::compute_pass(encoder, "transfer precomputation", pipeline, &groups);
+            for offset in t.batches.offsets() {
+                pass.set_bind_group(2, group, &[offset]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        };
+        profiler.pass(fc.ctx, "transfer precomputation", |encoder| {
+            encoder.clear_buffer(&t.buffer, 0, None);
+            directions(encoder, &t.accumulate, &t.groups[0]);
+            if t.bounces > 0 {
+                // Bounce 0 (shadowed transfer, the same in every channel) is the first bounce's source.
+                encoder.copy_buffer_to_buffer(&t.buffer, 0, &t.bounce_buffers[0], 0, t.buffer.size());
+            }
+            for b in 0..t.bounces as usize {
+                // Bounce b + 1 reads bounce buffer b % 2 and writes the other, then joins the sum.
+                encoder.clear_buffer(&t.bounce_buffers[(b + 1) % 2], 0, None);
+                directions(encoder, &t.interreflect, &t.groups[b % 2]);
+                let mut pass = crate::gpu::dispatch::compute_pass(
+                    encoder,
+                    "transfer precomputation",
+                    &t.add_bounce,
+                    &groups,
+                );
+                pass.set_bind_group(2, &t.groups[b % 2], &[0]);
+                pass.dispatch_workgroups(fx, fy, 1);
+            }
+        })?;
+        t.computed_for = Some(geometry);
+        Ok(())
+    }
+}
+
+impl Technique for Prt {
+    fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        self.precompute(fc, profiler)?;
+        self.projection.project(fc, profiler)?;
+        self.direct.render(fc, profiler)?;
+        compute::frame_pass(fc, profiler, "prt shading", &self.shade, &self.shade_group)
+    }
+
+    // Lights and emitters are the direct pass's, read every frame; a new environment is projected
+    // again and new geometry gets new transfer vectors before the next frame.
+    fn scene_changed(
+        &mut self,
+        _: &GpuContext,
+        _: &crate::gpu::GpuScene,
+        change: super::SceneChange,
+    ) -> Result<bool, RenderError> {
+        if change == super::SceneChange::Environment {
+            self.projection.invalidate();
+        }
+        Ok(true)
+    }
+
+    fn counters(
+        &mut self,
+        _: &GpuContext,
+        _: &super::Measured,
+    ) -> Result<std::collections::BTreeMap<String, f64>, RenderError> {
+        Ok(std::collections::BTreeMap::from([
+            ("transfer_vertices".to_string(), f64::from(self.transfer.vertices)),
+            ("transfer_floats_per_vertex".to_string(), f64::from(self.transfer.floats_per_vertex)),
+            ("transfer_bytes".to_string(), self.transfer.buffer.size() as f64),
+            (
+                "transfer_rays".to_string(),
+                f64::from(self.transfer.vertices)
+                    * f64::from(self.samples)
+                    * f64::from(1 + self.transfer.bounces),
+            ),
+            // The direct pass's target and the output, both f32 RGBA.
+            ("output_bytes_per_pixel".to_string(), 32.0),
+        ]))
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        vec![
+            "prt: diffuse transfer only (specular lobes get no environment light; glossy transfer is not built); \
+             back faces get no environment light"
+                .into(),
+        ]
+    }
+}

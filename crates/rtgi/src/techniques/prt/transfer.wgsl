@@ -1,0 +1,131 @@
+// Diffuse transfer vectors per vertex (Sloan, Kautz & Snyder 2002), precomputed through the shared BVH:
+// T_k = ∫ V(ω) max(0, n·ω) Y_k(ω) dω, so that a vertex lit by an environment with SH coefficients L_k
+// receives the irradiance Σ_k L_k T_k (shadowed: V is the vertex's visibility of the environment;
+// unshadowed: V = 1, the clamped cosine alone). The integral is estimated with TRANSFER_SAMPLES
+// cosine-distributed directions about the vertex normal, a Fibonacci lattice in the unit square moved
+// by a per-vertex Cranley–Patterson offset: T_k ≈ (π / N) Σ_s V(ω_s) Y_k(ω_s). Each dispatch adds
+// BATCH of the samples (long loops in one invocation are unsafe on lavapipe); an invocation traces
+// its vertex's BATCH rays, keeps their visibility as bits, then adds one coefficient at a time.
+//
+// Interreflected transfer (Sloan et al. §5) adds bounces: bounce b's transfer at v gathers bounce
+// b − 1's at the points its occluded directions hit, ΔT_b(v) = ∫ (ρ_q / π) ΔT_{b−1}(q) max(0, n·ω) dω
+// ≈ (1 / N) Σ_s ρ_q ΔT_{b−1}(q_s), with ΔT_{b−1}(q) interpolated from the hit triangle's vertices and
+// ρ_q the hit's diffuse reflectance (RGB: interreflected transfer has CHANNELS = 3 per coefficient,
+// the others 1). Back faces (hit against their normals) pass nothing on: transfer is for the side the
+// normals point to. Layout: transfer[(vertex · order² + k) · CHANNELS + channel].
+
+#import common/scene.wgsl
+#import common/hsh.wgsl
+#import common/sampling.wgsl
+#import common/random.wgsl
+
+struct Batch {
+    first_sample: u32,
+    // A run-time value so that LLVM (lavapipe) does not unroll the per-coefficient loop.
+    order: u32,
+}
+
+@group(2) @binding(0) var<storage, read_write> transfer: array<f32>;
+@group(2) @binding(1) var<uniform> batch: Batch;
+// Interreflection: the previous bounce's transfer increment and this bounce's (CHANNELS = 3 each).
+@group(2) @binding(2) var<storage, read> previous_bounce: array<f32>;
+@group(2) @binding(3) var<storage, read_write> this_bounce: array<f32>;
+
+const BATCH: u32 = 32u;
+const GOLDEN_FRACTION: f32 = 0.6180339887;
+
+// Sample s of the vertex's directions (world space).
+fn transfer_direction(vertex: u32, s: u32, n: vec3f) -> vec3f {
+    let lattice = vec2f((f32(s) + 0.5) / f32(TRANSFER_SAMPLES), fract(f32(s) * GOLDEN_FRACTION));
+    let offset = vec2f(u32_to_unit(hash2(vertex, 0x70727431u)), u32_to_unit(hash2(vertex, 0x70727432u)));
+    return local_to_world(sample_cosine_hemisphere(cp_rotate(lattice, offset)), n);
+}
+
+// Invocation per vertex, over the (x, y) spread of gpu::dispatch::workgroups_for.
+@compute @workgroup_size(64)
+fn accumulate(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    let vertex = id.x + id.y * groups.x * 64u;
+    if vertex >= VERTEX_COUNT {
+        return;
+    }
+    let v = vertices[vertex];
+    let n = vertex_normal(v);
+    let origin = offset_origin(v.position, n);
+    var visible = 0u;
+    for (var s = 0u; s < BATCH; s++) {
+        let sample = batch.first_sample + s;
+        if sample >= TRANSFER_SAMPLES {
+            break;
+        }
+        let d = transfer_direction(vertex, sample, n);
+        if !SHADOWED || !trace_any(Ray(origin, d), 0.0, FLT_MAX) {
+            visible |= 1u << s;
+        }
+    }
+    let count = batch.order * batch.order;
+    let weight = PI / f32(TRANSFER_SAMPLES);
+    for (var k = 0u; k < count; k++) {
+        var sum = 0.0;
+        for (var s = 0u; s < BATCH; s++) {
+            if (visible & (1u << s)) != 0u {
+                sum += sh_one(k, transfer_direction(vertex, batch.first_sample + s, n));
+            }
+        }
+        for (var c = 0u; c < CHANNELS; c++) {
+            transfer[(vertex * count + k) * CHANNELS + c] += sum * weight;
+        }
+    }
+}
+
+fn previous_transfer(vertex: u32, k: u32, count: u32) -> vec3f {
+    let i = (vertex * count + k) * 3u;
+    return vec3f(previous_bounce[i], previous_bounce[i + 1u], previous_bounce[i + 2u]);
+}
+
+// One batch of directions of one bounce of interreflection into this_bounce.
+@compute @workgroup_size(64)
+fn interreflect(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    let vertex = id.x + id.y * groups.x * 64u;
+    if vertex >= VERTEX_COUNT {
+        return;
+    }
+    let v = vertices[vertex];
+    let n = vertex_normal(v);
+    let origin = offset_origin(v.position, n);
+    let count = batch.order * batch.order;
+    for (var s = 0u; s < BATCH; s++) {
+        let sample = batch.first_sample + s;
+        if sample >= TRANSFER_SAMPLES {
+            break;
+        }
+        let d = transfer_direction(vertex, sample, n);
+        let hit = trace_closest(Ray(origin, d), 0.0, FLT_MAX);
+        if !hit_found(hit) || hits_back_face(hit.triangle, hit.u, hit.v, d) {
+            continue;
+        }
+        let q = surface_at(hit.triangle, hit.u, hit.v, d);
+        let reflectance = brdf_lobe_weights(q.material, saturate(dot(q.normal, -d))).diffuse;
+        let a = indices[hit.triangle * 3u];
+        let b = indices[hit.triangle * 3u + 1u];
+        let c = indices[hit.triangle * 3u + 2u];
+        let w = vec3f(1.0 - hit.u - hit.v, hit.u, hit.v);
+        let scale = reflectance / f32(TRANSFER_SAMPLES);
+        for (var k = 0u; k < count; k++) {
+            let t = w.x * previous_transfer(a, k, count) + w.y * previous_transfer(b, k, count)
+                + w.z * previous_transfer(c, k, count);
+            let i = (vertex * count + k) * 3u;
+            this_bounce[i] += scale.r * t.r;
+            this_bounce[i + 1u] += scale.g * t.g;
+            this_bounce[i + 2u] += scale.b * t.b;
+        }
+    }
+}
+
+// Adds a finished bounce to the transfer, one float per invocation.
+@compute @workgroup_size(64)
+fn add_bounce(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    let i = id.x + id.y * groups.x * 64u;
+    if i < VERTEX_COUNT * batch.order * batch.order * 3u {
+        transfer[i] += this_bounce[i];
+    }
+}

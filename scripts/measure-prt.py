@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Prints docs/measurements/prt-lavapipe.md: precomputed radiance transfer (diffuse, per vertex) on spheres-env
+against the path tracer at equal time (issue 14).
+
+    cargo build --release -p rtgi-cli && python3 scripts/measure-prt.py   # about 10 min on lavapipe
+    python3 scripts/measure-prt.py --size 1920x1080 --doc prt-gpu            # a GPU
+
+Runs `rtgi bench benches/prt.toml --images` and prints each cell's time per frame (and its `prt shading`
+pass), the precomputation's time (in the warm-up frame), FLIP and relMSE against the full-GI
+path-traced reference and the path tracer's FLIP at the same time. Options: --suite FILE, --size WxH,
+--doc NAME, --allow-dirty.
+"""
+import sys
+
+sys.dont_write_bytecode = True
+import measure_common as m  # noqa: E402
+
+SCRIPT = "measure-prt.py"
+SHADING = "prt shading"
+PRECOMPUTE = "transfer precomputation"
+
+
+def warmup_ms(cell, name):
+    """A pass's time in the cell's warm-up frame (None when it had no such pass)."""
+    for p in cell.get("warmup_passes", []):
+        if p["name"] == name:
+            return p["ms_per_frame"]
+    return None
+
+
+def cheaper_text(cells):
+    """How many prt cells cost less per frame than the path tracer's cheapest cell (they have no path
+    FLIP at their time)."""
+    path = [c["frame_ms"] for c in cells if c["technique"] == "path"]
+    prt = [c for c in cells if c["technique"] == "prt"]
+    if not path or not prt:
+        return ""
+    cheaper = sum(c["frame_ms"] < min(path) for c in prt)
+    return (f"{cheaper} of the {len(prt)} prt cells cost less per frame than the path tracer's cheapest "
+            f"({min(path):.0f} ms), so they have no path FLIP at their time. ")
+
+
+def main():
+    run = m.run_documented_suite(SCRIPT, "prt", "benches/prt.toml", "prt-lavapipe", __doc__.splitlines()[0])
+    suite, cells, cpu, ref_spp = run.suite, run.cells, run.cpu, run.ref_spp
+    lines = [
+        f"# Precomputed radiance transfer ({run.width}×{run.height})", "",
+        run.header,
+        "",
+        f"Each cell: a fresh renderer, one warm-up frame (prt precomputes its transfer vectors and projects "
+        f"the environment there; the precomputation column is that pass's time), then "
+        f"{suite.get('frames', 3)} timed frames, {suite.get('error_frames', 2)} of them compared with the "
+        f"path-traced full-GI reference (spp: {ref_spp}). spheres-env is lit by its sky alone. prt's "
+        "transfer is diffuse and per vertex: the glossy and metal spheres get no environment light (the "
+        "reference's reflections), the ground's two triangles hold no shadows, and unless interreflected "
+        "the sky reaches each surface once; env-harmonics shades every lobe but without visibility. "
+        + cheaper_text(cells) +
+        "ms/frame: the whole frame's GPU time; shading: the `prt shading` pass"
+        + (". On lavapipe: compare cells with each other, not with GPU figures." if cpu else "."), "",
+        "| cell | ms/frame | shading ms | precomputation ms | FLIP | relMSE | path's FLIP at this time "
+        "| FLIP / path's |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for c in cells:
+        p = m.path_flip_at(cells, c["frame_ms"]) if c["technique"] != "path" else None
+        ratio = c["error"]["flip"] / p if p else None
+        shading = m.pass_ms(c, SHADING)
+        pre = warmup_ms(c, PRECOMPUTE)
+        lines.append(f"| {m.label(c)} | {c['frame_ms']:.2f} | "
+                     f"{f'{shading:.2f}' if shading is not None else '–'} | "
+                     f"{f'{pre:.0f}' if pre is not None else '–'} | {c['error']['flip']:.4f} | "
+                     f"{c['error']['rel_mse']:.5f} | {m.path_flip_text(cells, c)} | "
+                     f"{f'{ratio:.2f}' if ratio is not None else '–'} |")
+    m.write_doc(SCRIPT, run.args.doc, lines)
+
+
+if __name__ == "__main__":
+    main()
