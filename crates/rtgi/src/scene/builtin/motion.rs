@@ -51,6 +51,22 @@ pub fn turns(rest: Quat, axis: Vec3, times: &[f32], angles_deg: &[f32]) -> Sampl
     Sampler::new(Interpolation::Linear, times.to_vec(), values)
 }
 
+/// Turns the environment once about +Y every `seconds` (LINEAR keys a quarter turn apart, so that each
+/// slerp is unambiguous), through a new root node bound to [`Scene::environment_rotation`]. Returns the
+/// node.
+pub fn spin_environment(scene: &mut Scene, clip: &str, seconds: f32) -> usize {
+    let node = add_root(scene, clip, "environment-turn", Trs::default());
+    let times: Vec<f32> = (0..=4).map(|k| seconds * k as f32 / 4.0).collect();
+    keys(
+        scene,
+        node,
+        Property::Rotation,
+        turns(Quat::IDENTITY, Vec3::Y, &times, &[0.0, 90.0, 180.0, 270.0, 360.0]),
+    );
+    animation(scene, clip).bindings.environment = Some(node);
+    node
+}
+
 /// Binds light `index` (a spot or directional light) to a new root node at its position looking
 /// along its direction, turning by `angles_deg` about the world axis `axis` through it at `times`.
 /// Returns the node.

@@ -551,6 +551,34 @@ fn spheres_env_rows_step_roughness_under_a_sky() {
     assert!(s.lights.is_empty());
 }
 
+/// `env_rotation` turns the sky about +Y, and `animate=environment` turns it once per 12 s on top of
+/// that, through the environment binding: the camera, lights and meshes stay, and the turn's axis and
+/// angle are what the parameters say.
+#[test]
+fn spheres_env_turns_its_sky() {
+    let still = scene("spheres-env", &[]);
+    assert_eq!(still.environment_rotation, glam::Quat::IDENTITY);
+    let turned = scene("spheres-env", &[("env_rotation", "30")]);
+    let (axis, angle) = turned.environment_rotation.to_axis_angle();
+    assert!(axis.distance(Vec3::Y) < 1e-6 && (angle.to_degrees() - 30.0).abs() < 1e-4, "{axis} {angle}");
+    let spinning = scene("spheres-env", &[("env_rotation", "30"), ("animate", "environment")]);
+    assert!(spinning.is_animated());
+    assert_eq!(spinning.animation_duration(), 12.0);
+    assert!(spinning.moving_meshes().iter().all(|m| !m));
+    for (t, degrees) in [(0.0, 30.0), (3.0, 120.0), (4.5, 165.0), (7.5, 255.0)] {
+        let pose = spinning.pose_at(t);
+        let (axis, angle) = pose.environment_rotation.to_axis_angle();
+        assert!(axis.distance(Vec3::Y) < 1e-5, "t={t}: axis {axis}");
+        assert!((angle.to_degrees() - degrees).abs() < 1e-3, "t={t}: {} vs {degrees}", angle.to_degrees());
+        assert_eq!(pose.camera, spinning.camera);
+        let posed = spinning.posed(t);
+        assert_eq!(posed.environment_rotation, pose.environment_rotation);
+        assert_eq!(posed.environment, spinning.environment, "the sky itself does not change");
+    }
+    let end = spinning.pose_at(12.0).environment_rotation;
+    assert!(end.angle_between(turned.environment_rotation) < 1e-4, "a full turn ends where it began");
+}
+
 #[test]
 fn atrium_triangle_budget_scales_with_detail() {
     let mut previous = 0;
