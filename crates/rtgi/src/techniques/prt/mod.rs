@@ -332,7 +332,8 @@ impl Technique for Prt {
     }
 
     // Lights and emitters are the direct pass's, read every frame; a new environment is projected
-    // again and new geometry gets new transfer vectors before the next frame.
+    // again (a turned one only rotated, by the projection itself) and new geometry gets new transfer
+    // vectors before the next frame.
     fn scene_changed(
         &mut self,
         _: &GpuContext,
@@ -362,6 +363,8 @@ impl Technique for Prt {
             ),
             // The direct pass's target and the output, both f32 RGBA.
             ("output_bytes_per_pixel".to_string(), 32.0),
+            ("environment_projections".to_string(), self.projection.projections as f64),
+            ("environment_rotations".to_string(), self.projection.rotations as f64),
         ]))
     }
 
