@@ -16,7 +16,7 @@ use crate::image::HdrImage;
 use crate::render::{ProgressFn, RenderError, RenderSettings, render};
 use crate::scene::{Environment, Light, Scene};
 
-pub use sources::StableHasher;
+pub use crate::stable_hash::StableHasher;
 
 /// A hash of everything in `scene` that can change a rendered pixel (names and warnings excluded).
 pub fn scene_content_hash(scene: &Scene) -> u64 {
