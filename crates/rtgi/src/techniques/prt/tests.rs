@@ -1,7 +1,7 @@
 use glam::{Vec2, Vec3};
 
 use super::*;
-use crate::gpu::readback::{read_buffer, read_texture};
+use crate::gpu::readback::read_buffer;
 use crate::gpu::scene::{GpuVertex, oct_decode};
 use crate::scene::{Environment, Material};
 use crate::shaders::validate;
@@ -44,13 +44,6 @@ fn white_spheres(environment: Option<Environment>) -> Fixture {
     fixture_of(scene, 64, 40)
 }
 
-/// Renders `frames` frames of `technique` and returns the RGB of every pixel.
-fn render(f: &mut Fixture, technique: &mut dyn Technique, frames: u32) -> Vec<Vec3> {
-    f.render_frames(technique, frames);
-    let image = read_texture(&f.ctx, &f.output, 16).expect("image");
-    bytemuck::cast_slice::<u8, [f32; 4]>(&image).iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect()
-}
-
 /// A white furnace: under a uniform environment L, a Lambertian surface of albedo 1 reflects L
 /// whatever its orientation, at any order: the environment's only non-zero coefficient is the
 /// constant one, and every vertex's constant transfer coefficient is (π / N) Σ Y_0 = π Y_0 exactly.
@@ -61,7 +54,7 @@ fn unshadowed_transfer_in_a_uniform_environment_reflects_the_albedo() {
     for order in ["1", "4"] {
         let p = params(&[("transfer", "unshadowed"), ("order", order), ("transfer_samples", "64")]);
         let mut prt = Prt::new(&f.setup(&p)).expect("prt");
-        let pixels = render(&mut f, &mut prt, 1);
+        let pixels = f.render_rgb(&mut prt, 1);
         let worst = pixels.iter().map(|p| (*p - Vec3::splat(2.0)).abs().max_element()).fold(0.0f32, f32::max);
         eprintln!("order {order}: worst |pixel − ρL| {worst:e}");
         // Measured 4.8e-7 (order 1) and 4.9e-6 (order 4): float rounding of the projection and transfer
@@ -79,7 +72,7 @@ fn unshadowed_transfer_is_the_clamped_cosine_about_the_vertex_normal() {
     let order = 4;
     let p = params(&[("transfer", "unshadowed"), ("order", "4"), ("transfer_samples", "1024")]);
     let mut prt = Prt::new(&f.setup(&p)).expect("prt");
-    render(&mut f, &mut prt, 1);
+    f.render_rgb(&mut prt, 1);
     let count = order * order;
     let bytes = read_buffer(&f.ctx, &prt.transfer.buffer, 0, prt.transfer.buffer.size()).expect("transfer");
     let transfer: &[f32] = bytemuck::cast_slice(&bytes);
@@ -123,11 +116,11 @@ fn shadowed_transfer_approaches_the_ray_traced_environment_light() {
     )
     .expect("params");
     let mut direct = (crate::techniques::direct::INFO.create)(&f.setup(&direct_params)).expect("direct");
-    let reference = render(&mut f, direct.as_mut(), 16);
+    let reference = f.render_rgb(direct.as_mut(), 16);
     let mut error = |transfer: &str| {
         let p = params(&[("transfer", transfer), ("order", "6"), ("transfer_samples", "256")]);
         let mut prt = Prt::new(&f.setup(&p)).expect("prt");
-        let pixels = render(&mut f, &mut prt, 1);
+        let pixels = f.render_rgb(&mut prt, 1);
         let (mut num, mut den) = (0.0f64, 0.0f64);
         for (p, r) in pixels.iter().zip(&reference) {
             num += f64::from((*p - *r).abs().element_sum());
@@ -163,7 +156,7 @@ fn interreflected_transfer_approaches_the_white_furnace() {
             ("transfer_samples", "128"),
         ]);
         let mut prt = Prt::new(&f.setup(&p)).expect("prt");
-        let pixels = render(&mut f, &mut prt, 1);
+        let pixels = f.render_rgb(&mut prt, 1);
         pixels.iter().map(|p| f64::from((1.0 - p.max_element()).abs())).sum::<f64>() / pixels.len() as f64
     };
     let shadowed = shortfall("shadowed", "1");
@@ -186,7 +179,7 @@ fn transfer_is_computed_once_per_geometry() {
     let p = params(&[("transfer_samples", "32"), ("order", "2")]);
     let mut prt = Prt::new(&f.setup(&p)).expect("prt");
     assert_eq!(prt.transfer.computed_for, None);
-    render(&mut f, &mut prt, 2);
+    f.render_rgb(&mut prt, 2);
     assert_eq!(prt.transfer.computed_for, Some(f.gpu_scene.geometry_version));
 }
 
@@ -251,7 +244,7 @@ fn a_turned_environment_is_projected_once_and_rotated() {
                     .expect("change")
             );
         }
-        render(&mut f, &mut prt, 1);
+        f.render_rgb(&mut prt, 1);
         let error = worst_against(&mut f, &mut prt, turn);
         // The same coefficients against the unturned sky: what a missing or inverted turn would give.
         let unturned = worst_against(&mut f, &mut prt, glam::Quat::IDENTITY);
@@ -324,10 +317,10 @@ fn a_turned_environment_lights_prt_as_it_lights_the_direct_pass() {
     )
     .expect("params");
     let mut direct = (crate::techniques::direct::INFO.create)(&f.setup(&direct_params)).expect("direct");
-    let reference = render(&mut f, direct.as_mut(), 16);
+    let reference = f.render_rgb(direct.as_mut(), 16);
     let p = params(&[("transfer", "shadowed"), ("order", "6"), ("transfer_samples", "256")]);
     let mut prt = Prt::new(&f.setup(&p)).expect("prt");
-    let pixels = render(&mut f, &mut prt, 1);
+    let pixels = f.render_rgb(&mut prt, 1);
     let (mut num, mut den) = (0.0f64, 0.0f64);
     for (p, r) in pixels.iter().zip(&reference) {
         num += f64::from((*p - *r).abs().element_sum());
@@ -338,4 +331,62 @@ fn a_turned_environment_lights_prt_as_it_lights_the_direct_pass() {
     // Measured 0.0377; the unturned sky's is 0.0344 (shadowed_transfer_approaches_the_ray_traced_
     // environment_light). With the SH rotation turned the other way than the renderer's, 0.0927.
     assert!(turned < 0.06, "{turned}");
+}
+
+/// Moving meshes make every move a new precomputation: the technique says so rather than running slow
+/// without a word, and says nothing of it for still scenes.
+#[test]
+fn moving_meshes_are_warned_of() {
+    let moving = |f: &Fixture| f.gpu_scene.has_instances();
+    let mut f = crate::techniques::fixture::fixture_with("cornell", &[("animate", "box")], 16, 16);
+    let still_warnings = {
+        let p = params(&[("transfer_samples", "32"), ("order", "2")]);
+        Prt::new(&f.setup(&p)).expect("prt").warnings()
+    };
+    assert!(!moving(&f), "the fixture uploads every mesh as still");
+    assert!(still_warnings.iter().all(|w| !w.contains("moving meshes")), "{still_warnings:?}");
+    f.gpu_scene = crate::gpu::GpuScene::with_moving_meshes(&f.ctx, &f.scene, &f.scene.moving_meshes())
+        .expect("upload with moving meshes");
+    assert!(moving(&f));
+    let p = params(&[("transfer_samples", "32"), ("order", "2")]);
+    let warnings = Prt::new(&f.setup(&p)).expect("prt").warnings();
+    assert!(warnings.iter().any(|w| w.contains("moving meshes")), "{warnings:?}");
+}
+
+/// The transfer of the geometry a technique was created for goes to the disk cache after its first
+/// frame, and a technique created anew with the same scene, settings and code loads it (bit for bit)
+/// instead of precomputing; other settings, and a damaged entry, precompute again.
+#[test]
+fn the_transfer_is_cached_on_disk_and_loaded_again() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut f = white_spheres(None);
+    let run = |f: &mut Fixture, samples: &str| {
+        let p = params(&[("transfer_samples", samples), ("order", "3")]);
+        let mut prt = Prt::new(&f.setup(&p)).expect("prt");
+        prt.transfer.cache.as_mut().expect("cache on by default").disk.dir = dir.path().to_path_buf();
+        f.render_rgb(&mut prt, 1);
+        let counters =
+            prt.counters(&f.ctx, &crate::techniques::Measured { passes: &[], frames_wall_ms: 0.0 });
+        let counters = counters.expect("counters");
+        let bytes =
+            read_buffer(&f.ctx, &prt.transfer.buffer, 0, prt.transfer.buffer.size()).expect("transfer");
+        let cache = prt.transfer.cache.as_ref().unwrap();
+        assert_eq!(counters["transfer_cache_loads"], f64::from(cache.loads));
+        (cache.loads, cache.stores, bytes, cache.disk.path(cache.key))
+    };
+    let (loads, stores, computed, path) = run(&mut f, "64");
+    assert_eq!((loads, stores), (0, 1), "the first run precomputes and stores");
+    assert!(path.exists());
+    let (loads, stores, loaded, _) = run(&mut f, "64");
+    assert_eq!((loads, stores), (1, 0), "the second run loads");
+    assert!(loaded == computed, "the loaded vectors are the computed ones");
+    let (loads, stores, other, other_path) = run(&mut f, "32");
+    assert_eq!((loads, stores), (0, 1), "other settings are another entry");
+    assert!(other_path != path && other != computed);
+    // A damaged entry (cut short) is a miss: the vectors are computed and stored again.
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    let (loads, stores, again, _) = run(&mut f, "64");
+    assert_eq!((loads, stores), (0, 1));
+    assert!(again == computed);
 }
