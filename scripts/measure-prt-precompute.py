@@ -52,6 +52,8 @@ def main():
     parser.add_argument("--allow-dirty", action="store_true")
     args = parser.parse_args()
     m.refuse_dirty_tree(args.allow_dirty, SCRIPT)
+    # The commit the binary is built from, named before the runs (the tree may change while they run).
+    commit = m.describe()
     rtgi = m.rtgi_binary()
     out = m.scratch("prt-precompute")
     counts = [int(c) for c in args.counts.split(",")]
@@ -65,7 +67,7 @@ def main():
     cpu = adapter.get("device_type") == "Cpu"
     lines = [
         "# prt: transfer precomputation against vertex count", "",
-        f"Printed by `{m.command_line(SCRIPT)}` at commit `{m.describe()}` on {m.adapter_text(adapter)}"
+        f"Printed by `{m.command_line(SCRIPT)}` at commit `{commit}` on {m.adapter_text(adapter)}"
         + (", 2 CPU cores" if cpu else "") + ". " + m.load_text(start, m.load_average()), "",
         "One 32×32 frame of `prt` per row (order 4: 16 coefficients per vertex and channel; 256 cosine-"
         "distributed directions per vertex and bounce; `transfer_cache=off`) on `spheres-env:count=N` (2N "
