@@ -16,20 +16,9 @@ pub const PARAMS: &[ParamSpec] = &[
         default: "5",
         doc: "spheres per row (roughness steps evenly from 0 to 1)",
     },
-    ParamSpec {
-        name: "env_rotation",
-        kind: ParamKind::Float { min: -360.0, max: 360.0 },
-        default: "0",
-        doc: "degrees the sky is turned about +Y (anticlockwise seen from above)",
-    },
-    motion::animate_param(
-        &["none", "environment"],
-        "environment: the sky turns once about +Y (12 s, LINEAR)",
-    ),
+    motion::ENV_ROTATION_PARAM,
+    motion::ENVIRONMENT_ANIMATE_PARAM,
 ];
-
-/// Seconds per turn of `animate=environment`.
-const SPIN_SECONDS: f32 = 12.0;
 
 const RADIUS: f32 = 0.45;
 const SPACING: f32 = 1.1;
@@ -105,7 +94,7 @@ pub fn build(params: &ParamValues) -> Scene {
         textures: Vec::new(),
         lights: Vec::new(),
         environment: sky(),
-        environment_rotation: Quat::from_rotation_y(params.float("env_rotation").to_radians() as f32),
+        environment_rotation: Quat::IDENTITY,
         camera: Camera {
             // Back off for long rows so both ends stay in a 16:9 frame.
             // High enough that the metal row shows above the dielectric one.
@@ -119,8 +108,6 @@ pub fn build(params: &ParamValues) -> Scene {
         warnings: Vec::new(),
         animation: None,
     };
-    if params.choice("animate") == "environment" {
-        motion::spin_environment(&mut scene, "environment", SPIN_SECONDS);
-    }
+    motion::turn_environment(&mut scene, params);
     scene
 }
