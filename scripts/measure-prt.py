@@ -50,27 +50,34 @@ def main():
         f"Each cell: a fresh renderer, one warm-up frame (prt precomputes its transfer vectors and projects "
         f"the environment there; the precomputation column is that pass's time), then "
         f"{suite.get('frames', 3)} timed frames, {suite.get('error_frames', 2)} of them compared with the "
-        f"path-traced full-GI reference (spp: {ref_spp}). spheres-env is lit by its sky alone. prt's "
-        "transfer is diffuse and per vertex: the glossy and metal spheres get no environment light (the "
-        "reference's reflections), the ground's two triangles hold no shadows, and unless interreflected "
-        "the sky reaches each surface once; env-harmonics shades every lobe but without visibility. "
-        + cheaper_text(cells) +
+        f"path-traced full-GI reference (spp: {ref_spp}). Each scene is lit by its sky alone. prt's "
+        "transfer is diffuse and per vertex: spheres-env's glossy and metal spheres get no environment light "
+        "(the reference's reflections) and its ground's two triangles hold no shadows; pillars is all "
+        "Lambertian on a ground of 9 cm cells. Unless interreflected the sky reaches each surface once; "
+        "env-harmonics shades every lobe but without visibility. "
         "ms/frame: the whole frame's GPU time; shading: the `prt shading` pass"
         + (". On lavapipe: compare cells with each other, not with GPU figures." if cpu else "."), "",
-        "| cell | ms/frame | shading ms | precomputation ms | FLIP | relMSE | path's FLIP at this time "
-        "| FLIP / path's |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for c in cells:
-        p = m.path_flip_at(cells, c["frame_ms"]) if c["technique"] != "path" else None
-        ratio = c["error"]["flip"] / p if p else None
-        shading = m.pass_ms(c, SHADING)
-        pre = warmup_ms(c, PRECOMPUTE)
-        lines.append(f"| {m.label(c)} | {c['frame_ms']:.2f} | "
-                     f"{f'{shading:.2f}' if shading is not None else '–'} | "
-                     f"{f'{pre:.0f}' if pre is not None else '–'} | {c['error']['flip']:.4f} | "
-                     f"{c['error']['rel_mse']:.5f} | {m.path_flip_text(cells, c)} | "
-                     f"{f'{ratio:.2f}' if ratio is not None else '–'} |")
+    scenes = list(dict.fromkeys(c["scene"] for c in cells))
+    for scene in scenes:
+        own = [c for c in cells if c["scene"] == scene]
+        lines += [
+            f"## {scene}", "", cheaper_text(own), "",
+            "| cell | ms/frame | shading ms | precomputation ms | FLIP | relMSE | path's FLIP at this time "
+            "| FLIP / path's |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for c in own:
+            p = m.path_flip_at(own, c["frame_ms"]) if c["technique"] != "path" else None
+            ratio = c["error"]["flip"] / p if p else None
+            shading = m.pass_ms(c, SHADING)
+            pre = warmup_ms(c, PRECOMPUTE)
+            lines.append(f"| {m.label(c)} | {c['frame_ms']:.2f} | "
+                         f"{f'{shading:.2f}' if shading is not None else '–'} | "
+                         f"{f'{pre:.0f}' if pre is not None else '–'} | {c['error']['flip']:.4f} | "
+                         f"{c['error']['rel_mse']:.5f} | {m.path_flip_text(own, c)} | "
+                         f"{f'{ratio:.2f}' if ratio is not None else '–'} |")
+        lines.append("")
     m.write_doc(SCRIPT, run.args.doc, lines)
 
 

@@ -4,6 +4,11 @@
 //! tables, the shared WGSL or the renderer then renders references anew instead of reusing stale ones.
 
 #[allow(dead_code)]
+mod stable_hash {
+    include!("src/stable_hash.rs");
+}
+
+#[allow(dead_code)]
 mod sources {
     include!("src/reference/sources.rs");
 }

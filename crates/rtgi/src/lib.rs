@@ -4,6 +4,7 @@
 //! ([`render::render`]), or frame by frame through the persistent [`renderer::Renderer`].
 
 pub mod bench;
+pub mod cache;
 pub mod error;
 pub mod frame;
 pub mod gpu;
@@ -19,6 +20,7 @@ pub mod scene;
 pub mod sequences;
 pub mod sh;
 pub mod shaders;
+pub mod stable_hash;
 pub mod techniques;
 pub mod testing;
 

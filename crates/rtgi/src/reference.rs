@@ -16,7 +16,7 @@ use crate::image::HdrImage;
 use crate::render::{ProgressFn, RenderError, RenderSettings, render};
 use crate::scene::{Environment, Light, Scene};
 
-pub use sources::StableHasher;
+pub use crate::stable_hash::StableHasher;
 
 /// A hash of everything in `scene` that can change a rendered pixel (names and warnings excluded).
 pub fn scene_content_hash(scene: &Scene) -> u64 {
@@ -81,6 +81,7 @@ pub fn scene_content_hash(scene: &Scene) -> u64 {
             .f32s(&ground_radiance.to_array()),
         Environment::Map(m) => h.u32(3).u32(m.width).u32(m.height).f32s(&[m.intensity]).f32s(&m.rgb),
     };
+    h.f32s(&scene.environment_rotation.to_array());
     let c = &scene.camera;
     h.f32s(&c.position.to_array())
         .f32s(&c.target.to_array())

@@ -531,8 +531,22 @@ impl Renderer {
         };
         let sun_before = sun(&self.posed.scene.environment);
         let lights_moved = pose.lights != self.posed.scene.lights;
+        let environment_turned = pose.environment_rotation != self.posed.scene.environment_rotation;
         self.posed.scene.place_lights_and_camera(pose);
         let environment_changed = sun(&self.posed.scene.environment) != sun_before;
+        if environment_turned {
+            self.restart_accumulation();
+            self.scene_moved = true;
+            self.gpu_scene.rotate_environment(&ctx, self.posed.scene.environment_rotation);
+            let updated = ctx.checked("turning the environment", || {
+                self.technique.scene_changed(&ctx, &self.gpu_scene, SceneChange::EnvironmentRotation)
+            })??;
+            if updated {
+                self.counters.environment_updates += 1;
+            } else {
+                self.rebuild_technique()?;
+            }
+        }
         if environment_changed {
             self.restart_accumulation();
             self.scene_moved = true;

@@ -7,8 +7,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The layer of each top-level module; a module may import its own layer and the ones below.
-const LAYERS: [(&str, u32); 20] = [
+const LAYERS: [(&str, u32); 22] = [
     ("error", 0),
+    ("stable_hash", 0),
+    ("cache", 0),
     ("scene", 0),
     ("image", 0),
     ("montage", 0),

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use wgpu::util::DeviceExt;
 
 use super::bvh::{Bvh, GpuBvh, InstancedBvh, SceneTriangles, TopLevel};
@@ -95,13 +95,22 @@ pub struct GpuSceneInfo {
     pub _pad2: f32,
     pub bounds_max: [f32; 3],
     pub _pad3: f32,
+    /// Columns of the rotation [`Scene::environment_rotation`] (WGSL `mat3x3f`: each column padded to
+    /// 16 bytes).
+    pub world_from_environment: [[f32; 4]; 3],
+}
+
+/// The scene info's columns of `rotation`.
+fn rotation_columns(rotation: glam::Quat) -> [[f32; 4]; 3] {
+    let m = glam::Mat3::from_quat(rotation.normalize());
+    [m.x_axis.extend(0.0).into(), m.y_axis.extend(0.0).into(), m.z_axis.extend(0.0).into()]
 }
 
 /// Size of the table the procedural sky is importance-sampled with.
 pub const SKY_BAKE_WIDTH: u32 = 128;
 pub const SKY_BAKE_HEIGHT: u32 = 64;
 
-/// Evaluates `environment_radiance` of `shaders/common/environment.wgsl` at the centre of every texel of a
+/// Evaluates `environment_radiance_unrotated` of `shaders/common/environment.wgsl` at the centre of every texel of a
 /// `SKY_BAKE_WIDTH` × `SKY_BAKE_HEIGHT` equirectangular grid. Made once per scene upload, so a moving
 /// sun re-bakes without compiling anything.
 struct SkyBaker {
@@ -123,7 +132,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     let uv = vec2f((f32(i % BAKE_W) + 0.5) / f32(BAKE_W), (f32(i / BAKE_W) + 0.5) / f32(BAKE_H));
-    baked[i] = vec4f(environment_radiance(equirect_direction(uv)), 1.0);
+    baked[i] = vec4f(environment_radiance_unrotated(equirect_direction(uv)), 1.0);
 }";
         let device = &ctx.device;
         let count = SKY_BAKE_COUNT;
@@ -740,6 +749,7 @@ impl GpuScene {
             _pad2: 0.0,
             bounds_max: bounds.max.into(),
             _pad3: 0.0,
+            world_from_environment: rotation_columns(scene.environment_rotation),
         };
         let (mut env_texels, env_cdf) = environment_tables(ctx, &scene.environment, &mut info)?;
 
@@ -1089,6 +1099,25 @@ impl GpuScene {
         Ok(true)
     }
 
+    /// Turns the environment to `rotation` ([`Scene::environment_rotation`]): only the scene info
+    /// changes, since the environment's texture and sampling table stay in its own frame. Returns
+    /// whether anything changed.
+    pub fn rotate_environment(&mut self, ctx: &GpuContext, rotation: glam::Quat) -> bool {
+        let columns = rotation_columns(rotation);
+        if columns == self.info.world_from_environment {
+            return false;
+        }
+        self.info.world_from_environment = columns;
+        ctx.queue.write_buffer(&self.info_buffer, 0, bytemuck::bytes_of(&self.info));
+        true
+    }
+
+    /// The environment's current turn ([`Scene::environment_rotation`]) as a rotation matrix.
+    pub fn world_from_environment(&self) -> glam::Mat3 {
+        let [x, y, z] = self.info.world_from_environment.map(|c| Vec4::from(c).truncate());
+        glam::Mat3::from_cols(x, y, z)
+    }
+
     /// The scene bounds the upload was made with (what shadow maps and RSMs frame).
     pub fn bounds(&self) -> crate::scene::Aabb {
         crate::scene::Aabb { min: self.info.bounds_min.into(), max: self.info.bounds_max.into() }
@@ -1339,6 +1368,7 @@ mod tests {
                 ("ground_radiance", offset_of!(GpuSceneInfo, ground_radiance)),
                 ("bounds_min", offset_of!(GpuSceneInfo, bounds_min)),
                 ("bounds_max", offset_of!(GpuSceneInfo, bounds_max)),
+                ("world_from_environment", offset_of!(GpuSceneInfo, world_from_environment)),
             ],
         );
         assert_layout(

@@ -256,6 +256,8 @@ pub struct Bindings {
     /// The node whose rotation turns the sun of an [`Environment::Sky`] (usually the directional
     /// light's node).
     pub sun: Option<usize>,
+    /// The node whose rotation turns the environment ([`Scene::environment_rotation`]).
+    pub environment: Option<usize>,
 }
 
 /// The animation of a scene. See the module documentation for how it applies to the scene's data.
@@ -313,7 +315,8 @@ impl SceneAnimation {
         if !(b.meshes.iter().all(node_ok)
             && b.lights.iter().all(node_ok)
             && node_ok(&b.camera)
-            && node_ok(&b.sun))
+            && node_ok(&b.sun)
+            && node_ok(&b.environment))
         {
             return Err(format!("animation binding to a node out of range ({} nodes)", self.nodes.len()));
         }
@@ -393,6 +396,8 @@ pub struct Pose {
     /// The sun direction (towards the sun) of an [`Environment::Sky`] at t; `None` for other
     /// environments.
     pub environment_sun: Option<Vec3>,
+    /// The environment's rotation at t ([`Scene::environment_rotation`]).
+    pub environment_rotation: Quat,
 }
 
 fn transform_light(light: &Light, m: Mat4) -> Light {
@@ -437,6 +442,7 @@ impl Scene {
                 Environment::Sky { sun_direction, .. } => Some(sun_direction),
                 _ => None,
             },
+            environment_rotation: self.environment_rotation,
         };
         let Some(anim) = self.animation.as_ref().filter(|_| self.is_animated()) else { return static_pose() };
         let (start, end) = anim.active_clip().map_or((0.0, 0.0), AnimationClip::range);
@@ -465,6 +471,10 @@ impl Scene {
         }
         if let (Some(d), Some(sun)) = (delta(Some(&b.sun)), pose.environment_sun.as_mut()) {
             *sun = d.transform_vector3(*sun).normalize_or(*sun);
+        }
+        if let Some(d) = delta(Some(&b.environment)) {
+            let (_, turn, _) = d.to_scale_rotation_translation();
+            pose.environment_rotation = (turn * pose.environment_rotation).normalize();
         }
         pose
     }
@@ -496,6 +506,7 @@ impl Scene {
             lights: Vec::new(),
             camera: self.camera,
             environment: self.environment.clone(),
+            environment_rotation: self.environment_rotation,
             animation: None,
             name: self.name.clone(),
             materials: self.materials.clone(),
@@ -511,6 +522,7 @@ impl Scene {
     pub fn place_lights_and_camera(&mut self, pose: Pose) {
         self.lights = pose.lights;
         self.camera = pose.camera;
+        self.environment_rotation = pose.environment_rotation;
         if let (Environment::Sky { sun_direction, .. }, Some(sun)) =
             (&mut self.environment, pose.environment_sun)
         {

@@ -32,6 +32,12 @@ pub const ENVIRONMENT_KEY: &str = "rtgi_environment";
 /// Key in `scenes[0].extras` holding the index of the node whose rotation turns the sun of a sky
 /// environment (see [`crate::scene::animation::Bindings::sun`]).
 pub const SUN_NODE_KEY: &str = "rtgi_sun_node";
+/// Key in `scenes[0].extras` holding [`Scene::environment_rotation`] as a unit quaternion `[x, y, z, w]`
+/// (absent for no turn).
+pub const ENVIRONMENT_ROTATION_KEY: &str = "rtgi_environment_rotation";
+/// Key in `scenes[0].extras` holding the index of the node whose rotation turns the environment (see
+/// [`crate::scene::animation::Bindings::environment`]).
+pub const ENVIRONMENT_NODE_KEY: &str = "rtgi_environment_node";
 /// Key in `scenes[0].extras` holding the index of the animation that plays (glTF has no such notion;
 /// without it the first one plays).
 pub const ACTIVE_ANIMATION_KEY: &str = "rtgi_active_animation";
@@ -295,6 +301,12 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
     let mut scene_extras = vec![(ENVIRONMENT_KEY, json_text(&environment)?)];
     if let Some((sun, _)) = hierarchy.binding(|a| Some(&a.sun)) {
         scene_extras.push((SUN_NODE_KEY, json_text(&hierarchy.nodes[sun].value())?));
+    }
+    if scene.environment_rotation != glam::Quat::IDENTITY {
+        scene_extras.push((ENVIRONMENT_ROTATION_KEY, json_text(&scene.environment_rotation.to_array())?));
+    }
+    if let Some(node) = scene.animation.as_ref().and_then(|a| a.bindings.environment) {
+        scene_extras.push((ENVIRONMENT_NODE_KEY, json_text(&hierarchy.nodes[node].value())?));
     }
     if let Some(anim) = &scene.animation {
         let active = hierarchy.clips(&mut b, anim);

@@ -29,7 +29,8 @@ use serde_json::Value;
 
 use super::animation::{AnimNode, AnimationClip, Channel, Interpolation, Property, Sampler, Trs};
 use super::gltf_export::{
-    ACTIVE_ANIMATION_KEY, ENVIRONMENT_KEY, EnvironmentJson, SUN_NODE_KEY, TARGET_DISTANCE_KEY,
+    ACTIVE_ANIMATION_KEY, ENVIRONMENT_KEY, ENVIRONMENT_NODE_KEY, ENVIRONMENT_ROTATION_KEY, EnvironmentJson,
+    SUN_NODE_KEY, TARGET_DISTANCE_KEY,
 };
 use super::{
     Aabb, AlphaMode, Camera, Environment, EnvironmentMap, Light, Material, Mesh, Scene, SceneAnimation,
@@ -307,9 +308,11 @@ impl Loader<'_> {
         }
         out.scene.camera = camera.unwrap_or_else(|| framing_camera(out.scene.bounds()));
         out.scene.environment = self.environment(scene_index, out)?;
+        out.scene.environment_rotation = self.environment_rotation(scene_index, out);
         if !self.root.animations.is_empty() {
             anim.clips = self.animations(&anim_index, out)?;
-            anim.bindings.sun = self.sun_node(scene_index, &anim_index, out);
+            anim.bindings.sun = self.bound_node(scene_index, SUN_NODE_KEY, &anim_index, out);
+            anim.bindings.environment = self.bound_node(scene_index, ENVIRONMENT_NODE_KEY, &anim_index, out);
             anim.active = self.active_animation(scene_index, anim.clips.len(), out);
             out.scene.animation = Some(anim);
         }
@@ -417,23 +420,45 @@ impl Loader<'_> {
         }
     }
 
-    /// The node that turns the sky's sun, recorded by rtgi's exporter in the scene extras.
-    fn sun_node(
+    /// The node recorded by rtgi's exporter under `key` in the scene extras (the one that turns the
+    /// sky's sun, or the environment).
+    fn bound_node(
         &self,
         scene_index: Option<usize>,
+        key: &str,
         anim_index: &[Option<usize>],
         out: &mut Output,
     ) -> Option<usize> {
-        let value = &self.raw["scenes"][scene_index?]["extras"][SUN_NODE_KEY];
+        let value = &self.raw["scenes"][scene_index?]["extras"][key];
         if value.is_null() {
             return None;
         }
         let node = value.as_u64().and_then(|n| anim_index.get(usize::try_from(n).ok()?).copied().flatten());
         if node.is_none() {
-            out.warnings
-                .note(format!("'{SUN_NODE_KEY}' extras ignored: {value} is not a node of the loaded scene"));
+            out.warnings.note(format!("'{key}' extras ignored: {value} is not a node of the loaded scene"));
         }
         node
+    }
+
+    /// The environment's turn recorded by rtgi's exporter in the scene extras (identity if none).
+    fn environment_rotation(&self, scene_index: Option<usize>, out: &mut Output) -> glam::Quat {
+        let Some(value) = scene_index.map(|i| &self.raw["scenes"][i]["extras"][ENVIRONMENT_ROTATION_KEY])
+        else {
+            return glam::Quat::IDENTITY;
+        };
+        if value.is_null() {
+            return glam::Quat::IDENTITY;
+        }
+        let parsed = serde_json::from_value::<[f32; 4]>(value.clone())
+            .ok()
+            .map(glam::Quat::from_array)
+            .filter(|q| q.is_finite() && (q.length() - 1.0).abs() < 1e-3);
+        parsed.map(glam::Quat::normalize).unwrap_or_else(|| {
+            out.warnings.note(format!(
+                "'{ENVIRONMENT_ROTATION_KEY}' extras ignored: {value} is not a unit quaternion [x, y, z, w]"
+            ));
+            glam::Quat::IDENTITY
+        })
     }
 
     /// The nodes to draw: the default scene's, else the first scene's, else every node that is nobody's

@@ -23,7 +23,7 @@ pub mod spec;
 
 pub use spec::SceneSpec;
 
-use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 
 pub use animation::{Pose, SceneAnimation};
 
@@ -36,6 +36,11 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub lights: Vec<Light>,
     pub environment: Environment,
+    /// How the environment is turned in the world: radiance arriving from world direction d is the
+    /// unturned environment's radiance from R⁻¹ d (for a map, u = 0 at R·(−Z)). Identity by default.
+    /// Every technique sees the same turn: the GPU scene applies it where the environment is read and
+    /// sampled, and SH techniques rotate their projection instead of projecting again.
+    pub environment_rotation: Quat,
     pub camera: Camera,
     /// Features of the source file that rtgi read but does not render (e.g. a glTF extension that is
     /// optional). Loaders report them here instead of dropping them silently; the CLI prints them.

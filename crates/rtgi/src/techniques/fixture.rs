@@ -82,4 +82,14 @@ impl Fixture {
             profiler.end_frame(&self.ctx).expect("frame end");
         }
     }
+
+    /// [`Self::render_frames`], then the output's RGB, pixel by pixel.
+    pub fn render_rgb(&mut self, technique: &mut dyn Technique, frames: u32) -> Vec<glam::Vec3> {
+        self.render_frames(technique, frames);
+        let image = crate::gpu::readback::read_texture(&self.ctx, &self.output, 16).expect("image");
+        bytemuck::cast_slice::<u8, [f32; 4]>(&image)
+            .iter()
+            .map(|p| glam::Vec3::new(p[0], p[1], p[2]))
+            .collect()
+    }
 }

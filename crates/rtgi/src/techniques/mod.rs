@@ -136,6 +136,10 @@ pub enum SceneChange {
     Lights,
     /// The environment changed (e.g. a sky whose sun moved).
     Environment,
+    /// The environment turned ([`crate::scene::Scene::environment_rotation`]): what it holds and its
+    /// sampling table are unchanged, [`GpuScene::world_from_environment`] is new. SH projections
+    /// rotate instead of projecting again.
+    EnvironmentRotation,
     /// Moving meshes moved ([`GpuScene::move_meshes`]): vertices, BVH top level, bounds and, when an
     /// emitter moved, the emitter table are updated; [`GpuScene::geometry_version`] is new.
     Geometry,

@@ -176,6 +176,7 @@ pub(crate) fn animated_scene() -> Scene {
         lights: vec![None, Some(child)],
         camera: Some(parent),
         sun: Some(child),
+        environment: Some(parent),
     };
     let mut floor = MeshBuilder::new();
     floor.axis_rect(1, 0.0, glam::Vec2::splat(-3.0), glam::Vec2::splat(3.0), 1.0, 1.0);

@@ -284,6 +284,7 @@ fn courtyard(params: &ParamValues) -> Scene {
             sky_radiance: Vec3::new(0.45, 0.6, 0.9),
             ground_radiance: Vec3::new(0.2, 0.18, 0.15),
         },
+        environment_rotation: glam::Quat::IDENTITY,
         camera: Camera {
             position: Vec3::new(-13.0, 1.7, 0.0),
             target: Vec3::new(10.0, 4.5, 0.0),

@@ -121,6 +121,7 @@ pub fn build(params: &ParamValues) -> Scene {
         textures: vec![bump_normal_map()],
         lights,
         environment: Environment::None,
+        environment_rotation: glam::Quat::IDENTITY,
         camera: Camera {
             position: Vec3::new(0.0, 1.7, 3.8),
             target: Vec3::new(0.0, 0.35, -0.3),

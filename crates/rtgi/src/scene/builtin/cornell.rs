@@ -257,6 +257,7 @@ fn cornell_box(name: &str, lighting: Lighting, glossy_back_wall: bool) -> Scene 
         textures: Vec::new(),
         lights,
         environment: Environment::None,
+        environment_rotation: glam::Quat::IDENTITY,
         camera: camera(),
         warnings: Vec::new(),
         animation: None,

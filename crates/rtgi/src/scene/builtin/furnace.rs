@@ -93,6 +93,7 @@ pub fn build(params: &ParamValues) -> Scene {
         textures: Vec::new(),
         lights: Vec::new(),
         environment: Environment::None,
+        environment_rotation: glam::Quat::IDENTITY,
         camera: Camera {
             position: Vec3::new(0.3, 0.2, 0.7),
             target: Vec3::new(-0.2, -0.1, -1.0),

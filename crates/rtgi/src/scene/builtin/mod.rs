@@ -8,6 +8,7 @@ mod bumpy_glossy;
 mod cornell;
 mod furnace;
 mod motion;
+mod pillars;
 pub mod shapes;
 mod spheres_env;
 #[cfg(test)]
@@ -26,7 +27,7 @@ pub struct BuiltinScene {
     pub build: fn(&ParamValues) -> Scene,
 }
 
-static SCENES: [BuiltinScene; 7] = [
+static SCENES: [BuiltinScene; 8] = [
     BuiltinScene {
         name: "cornell",
         description: "the Cornell box from its published measurements, lit by its emissive ceiling quad",
@@ -62,6 +63,12 @@ static SCENES: [BuiltinScene; 7] = [
         description: "dielectric and metal spheres of increasing roughness under a procedural sky",
         params: spheres_env::PARAMS,
         build: spheres_env::build,
+    },
+    BuiltinScene {
+        name: "pillars",
+        description: "a ring of pillars round a trefoil knot on a fine ground, lit by a sky alone: self-shadowing for PRT",
+        params: pillars::PARAMS,
+        build: pillars::build,
     },
     BuiltinScene {
         name: "atrium",

@@ -51,6 +51,47 @@ pub fn turns(rest: Quat, axis: Vec3, times: &[f32], angles_deg: &[f32]) -> Sampl
     Sampler::new(Interpolation::Linear, times.to_vec(), values)
 }
 
+/// The `env_rotation` parameter of scenes under an environment.
+pub const ENV_ROTATION_PARAM: ParamSpec = ParamSpec {
+    name: "env_rotation",
+    kind: ParamKind::Float { min: -360.0, max: 360.0 },
+    default: "0",
+    doc: "degrees the environment is turned about +Y (anticlockwise seen from above)",
+};
+
+/// The `animate` parameter of scenes whose only motion is their environment turning.
+pub const ENVIRONMENT_ANIMATE_PARAM: ParamSpec = animate_param(
+    &["none", "environment"],
+    "environment: the environment turns once about +Y (12 s, LINEAR)",
+);
+
+/// Seconds per turn of `animate=environment`.
+const ENVIRONMENT_TURN_SECONDS: f32 = 12.0;
+
+/// Applies [`ENV_ROTATION_PARAM`] and [`ENVIRONMENT_ANIMATE_PARAM`] to `scene`.
+pub fn turn_environment(scene: &mut Scene, params: &crate::params::ParamValues) {
+    scene.environment_rotation = Quat::from_rotation_y(params.float("env_rotation").to_radians() as f32);
+    if params.choice("animate") == "environment" {
+        spin_environment(scene, "environment", ENVIRONMENT_TURN_SECONDS);
+    }
+}
+
+/// Turns the environment once about +Y every `seconds` (LINEAR keys a quarter turn apart, so that each
+/// slerp is unambiguous), through a new root node bound to [`Scene::environment_rotation`]. Returns the
+/// node.
+pub fn spin_environment(scene: &mut Scene, clip: &str, seconds: f32) -> usize {
+    let node = add_root(scene, clip, "environment-turn", Trs::default());
+    let times: Vec<f32> = (0..=4).map(|k| seconds * k as f32 / 4.0).collect();
+    keys(
+        scene,
+        node,
+        Property::Rotation,
+        turns(Quat::IDENTITY, Vec3::Y, &times, &[0.0, 90.0, 180.0, 270.0, 360.0]),
+    );
+    animation(scene, clip).bindings.environment = Some(node);
+    node
+}
+
 /// Binds light `index` (a spot or directional light) to a new root node at its position looking
 /// along its direction, turning by `angles_deg` about the world axis `axis` through it at `times`.
 /// Returns the node.

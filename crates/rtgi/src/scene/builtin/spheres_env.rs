@@ -2,18 +2,23 @@
 //! ground under a procedural sky: the material-response chart for environment lighting (prefiltered
 //! environment maps, SH irradiance, specular occlusion).
 
-use glam::{Vec2, Vec3};
+use glam::{Quat, Vec2, Vec3};
 
+use super::motion;
 use super::shapes::MeshBuilder;
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::scene::{Camera, Environment, Material, Scene};
 
-pub const PARAMS: &[ParamSpec] = &[ParamSpec {
-    name: "count",
-    kind: ParamKind::Int { min: 2, max: 10 },
-    default: "5",
-    doc: "spheres per row (roughness steps evenly from 0 to 1)",
-}];
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "count",
+        kind: ParamKind::Int { min: 2, max: 10 },
+        default: "5",
+        doc: "spheres per row (roughness steps evenly from 0 to 1)",
+    },
+    motion::ENV_ROTATION_PARAM,
+    motion::ENVIRONMENT_ANIMATE_PARAM,
+];
 
 const RADIUS: f32 = 0.45;
 const SPACING: f32 = 1.1;
@@ -82,13 +87,14 @@ pub fn build(params: &ParamValues) -> Scene {
         }
     }
 
-    Scene {
+    let mut scene = Scene {
         name: "spheres-env".into(),
         meshes,
         materials,
         textures: Vec::new(),
         lights: Vec::new(),
         environment: sky(),
+        environment_rotation: Quat::IDENTITY,
         camera: Camera {
             // Back off for long rows so both ends stay in a 16:9 frame.
             // High enough that the metal row shows above the dielectric one.
@@ -101,5 +107,7 @@ pub fn build(params: &ParamValues) -> Scene {
         },
         warnings: Vec::new(),
         animation: None,
-    }
+    };
+    motion::turn_environment(&mut scene, params);
+    scene
 }

@@ -123,7 +123,16 @@ fn every_scene_builds_validates_and_frames_its_subject() {
     let names: Vec<&str> = list().iter().map(|s| s.name).collect();
     assert_eq!(
         names,
-        ["cornell", "cornell-spot", "two-rooms", "furnace", "bumpy-glossy", "spheres-env", "atrium"]
+        [
+            "cornell",
+            "cornell-spot",
+            "two-rooms",
+            "furnace",
+            "bumpy-glossy",
+            "spheres-env",
+            "pillars",
+            "atrium"
+        ]
     );
     for entry in list() {
         assert!(!entry.description.is_empty());
@@ -549,6 +558,66 @@ fn spheres_env_rows_step_roughness_under_a_sky() {
     assert!(sky_radiance.max_element() > 0.5 && sky_radiance.max_element() < 2.0);
     assert!(sun_radiance.min_element() > 0.0);
     assert!(s.lights.is_empty());
+}
+
+/// `env_rotation` turns the sky about +Y, and `animate=environment` turns it once per 12 s on top of
+/// that, through the environment binding: the camera, lights and meshes stay, and the turn's axis and
+/// angle are what the parameters say.
+#[test]
+fn spheres_env_turns_its_sky() {
+    let still = scene("spheres-env", &[]);
+    assert_eq!(still.environment_rotation, glam::Quat::IDENTITY);
+    let turned = scene("spheres-env", &[("env_rotation", "30")]);
+    let (axis, angle) = turned.environment_rotation.to_axis_angle();
+    assert!(axis.distance(Vec3::Y) < 1e-6 && (angle.to_degrees() - 30.0).abs() < 1e-4, "{axis} {angle}");
+    let spinning = scene("spheres-env", &[("env_rotation", "30"), ("animate", "environment")]);
+    assert!(spinning.is_animated());
+    assert_eq!(spinning.animation_duration(), 12.0);
+    assert!(spinning.moving_meshes().iter().all(|m| !m));
+    for (t, degrees) in [(0.0, 30.0), (3.0, 120.0), (4.5, 165.0), (7.5, 255.0)] {
+        let pose = spinning.pose_at(t);
+        let (axis, angle) = pose.environment_rotation.to_axis_angle();
+        assert!(axis.distance(Vec3::Y) < 1e-5, "t={t}: axis {axis}");
+        assert!((angle.to_degrees() - degrees).abs() < 1e-3, "t={t}: {} vs {degrees}", angle.to_degrees());
+        assert_eq!(pose.camera, spinning.camera);
+        let posed = spinning.posed(t);
+        assert_eq!(posed.environment_rotation, pose.environment_rotation);
+        assert_eq!(posed.environment, spinning.environment, "the sky itself does not change");
+    }
+    let end = spinning.pose_at(12.0).environment_rotation;
+    assert!(end.angle_between(turned.environment_rotation) < 1e-4, "a full turn ends where it began");
+}
+
+/// The knot is a closed tube (every edge joins exactly two of its triangles, so it has no cracks for
+/// rays to leak through) clear of the pillars and above the ground; the pillars stand on the ground;
+/// the ground is fine enough for per-vertex transfer (cells under 10 cm); the sky is the only light.
+#[test]
+fn pillars_ring_a_closed_knot_on_a_fine_ground() {
+    let s = scene("pillars", &[]);
+    assert!(s.lights.is_empty() && matches!(s.environment, Environment::Sky { .. }));
+    let knot = mesh(&s, "knot");
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in knot.indices.chunks_exact(3) {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    assert!(edges.values().all(|&n| n == 2), "the knot's tube is open");
+    let (lo, hi) = mesh_bounds(knot);
+    let reach = knot.positions.iter().map(|p| Vec2::new(p.x, p.z).length()).fold(0.0, f32::max);
+    assert!(lo.y > 0.3 && hi.y < 2.0 && reach < 2.0, "{lo} {hi} {reach}");
+    let pillars = mesh(&s, "pillars");
+    let (lo, hi) = mesh_bounds(pillars);
+    assert!(lo.y.abs() < 1e-6 && hi.y > 2.0, "{lo} {hi}");
+    let nearest = pillars.positions.iter().map(|p| Vec2::new(p.x, p.z).length()).fold(f32::MAX, f32::min);
+    assert!(nearest > reach + 0.1, "pillars at {nearest} touch the knot reaching {reach}");
+    let ground = mesh(&s, "ground");
+    let cell = ground
+        .indices
+        .chunks_exact(3)
+        .map(|t| ground.positions[t[0] as usize].distance(ground.positions[t[1] as usize]))
+        .fold(0.0, f32::max);
+    assert!(cell < 0.1 * 2f32.sqrt(), "ground cells {cell} m");
 }
 
 #[test]

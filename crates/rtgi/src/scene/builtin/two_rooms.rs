@@ -107,6 +107,7 @@ fn rooms(params: &ParamValues) -> Scene {
         textures: Vec::new(),
         lights: vec![spot_light()],
         environment: Environment::None,
+        environment_rotation: glam::Quat::IDENTITY,
         camera: Camera {
             position: Vec3::new(3.5, 1.6, 1.6),
             target: Vec3::new(-2.5, 0.7, -1.0),

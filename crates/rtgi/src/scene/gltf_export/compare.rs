@@ -29,6 +29,13 @@ pub fn scene_differences(a: &Scene, b: &Scene) -> Vec<String> {
     compare_lights(&mut d, a, b);
     compare_camera(&mut d, &a.camera, &b.camera);
     compare_environment(&mut d, &a.environment, &b.environment);
+    // Matrices, not quaternions: q and −q are the same turn.
+    d.floats(
+        "environment rotation",
+        &glam::Mat3::from_quat(a.environment_rotation).to_cols_array(),
+        &glam::Mat3::from_quat(b.environment_rotation).to_cols_array(),
+        FACTOR_TOL,
+    );
     d.0
 }
 

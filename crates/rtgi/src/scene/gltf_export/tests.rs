@@ -128,6 +128,7 @@ pub(crate) fn representative_scene() -> Scene {
             sky_radiance: Vec3::new(0.3, 0.5, 1.1),
             ground_radiance: Vec3::new(0.1, 0.09, 0.08),
         },
+        environment_rotation: glam::Quat::from_axis_angle(Vec3::new(0.3, 1.0, -0.2).normalize(), 0.7),
         camera: Camera {
             position: Vec3::new(2.0, 1.5, 4.0),
             target: Vec3::new(0.0, 0.5, 0.0),
@@ -190,6 +191,7 @@ fn comparison_detects_differences() {
     moved.camera.target.y += 1e-3;
     moved.meshes[1].positions[3].z += 1e-3;
     moved.environment = Environment::Uniform(Vec3::ONE);
+    moved.environment_rotation = glam::Quat::from_rotation_y(1e-3);
     let diffs = scene_differences(&scene, &moved);
     let joined = diffs.join("\n");
     for expected in [
@@ -199,6 +201,7 @@ fn comparison_detects_differences() {
         "camera target",
         "mesh 1 'box' positions[3]",
         "environment: sky vs uniform",
+        "environment rotation",
     ] {
         assert!(joined.contains(expected), "missing '{expected}' in:\n{joined}");
     }
@@ -299,6 +302,17 @@ fn every_builtin_scene_round_trips() {
     }
 }
 
+/// A turned environment keeps its turn through export and reload.
+#[test]
+fn environment_rotation_round_trips() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let settings = [("env_rotation".to_string(), "-47.5".to_string())];
+    let scene = crate::scene::builtin::build("spheres-env", &settings).expect("built-in scene");
+    assert_ne!(scene.environment_rotation, glam::Quat::IDENTITY);
+    let back = round_trip(&scene, dir.path());
+    assert_scenes_equivalent(&scene, &back);
+}
+
 /// `b` plays the same animation as `a`: the same clips (names, animated properties, interpolation,
 /// key times and values) and, at several times, posed scenes equivalent within 1e-5.
 pub(crate) fn assert_animations_equivalent(a: &Scene, b: &Scene) {
@@ -361,9 +375,13 @@ fn hand_written_animated_gltf_round_trips() {
 
 #[test]
 fn animated_builtin_scenes_round_trip() {
-    for (name, motion) in
-        [("cornell", "box"), ("cornell-spot", "spot"), ("atrium", "camera"), ("atrium", "sun")]
-    {
+    for (name, motion) in [
+        ("cornell", "box"),
+        ("cornell-spot", "spot"),
+        ("atrium", "camera"),
+        ("atrium", "sun"),
+        ("spheres-env", "environment"),
+    ] {
         let settings = [("animate".to_string(), motion.to_string())];
         let scene = crate::scene::builtin::build(name, &settings).expect("built-in scene");
         animation_round_trip(&scene);

@@ -18,7 +18,9 @@ fn sky_radiance(d: vec3f) -> vec3f {
     return scene_info.env_radiance * (1.0 + 0.5 * h * h) + scene_info.sun_radiance * glow;
 }
 
-fn environment_radiance(d: vec3f) -> vec3f {
+// Radiance of the environment in its own frame (before Scene::environment_rotation turns it): what
+// the sampling table, the sky bake and SH projections are made of.
+fn environment_radiance_unrotated(d: vec3f) -> vec3f {
     switch scene_info.env_kind {
         case ENV_UNIFORM: {
             return scene_info.env_radiance * scene_info.env_intensity;
@@ -38,8 +40,18 @@ fn environment_radiance(d: vec3f) -> vec3f {
     }
 }
 
+// The environment's own frame seen from a world direction.
+fn environment_direction(world: vec3f) -> vec3f {
+    return transpose(scene_info.world_from_environment) * world;
+}
+
+// Radiance arriving from world direction d.
+fn environment_radiance(d: vec3f) -> vec3f {
+    return environment_radiance_unrotated(environment_direction(d));
+}
+
 // ---- Sampling the environment as a light ----
-// Maps and the procedural sky are importance-sampled in proportion to luminance × sin θ (piecewise
+// Maps and the procedural sky are importance-sampled (in the environment's own frame, then turned) in proportion to luminance × sin θ (piecewise
 // constant per texel of `environment_map`; table built by gpu/scene.rs `environment_cdf`, for the sky
 // from a bake of `environment_radiance` itself); a uniform environment is sampled cosine-weighted about
 // the normal, which is already ideal for it.
@@ -94,7 +106,7 @@ fn sample_environment_map(u: vec2f) -> EnvironmentSample {
     let x0 = env_cdf_below(row, x);
     let fx = saturate((u.x - x0) / max(env_cdf[row + x] - x0, 1e-12));
     let uv = vec2f((f32(x) + fx) / f32(w), (f32(y) + fy) / f32(h));
-    s.direction = equirect_direction(uv);
+    s.direction = scene_info.world_from_environment * equirect_direction(uv);
     s.pdf = env_map_texel_pdf(x, y, w, h, sin(uv.y * PI));
     // The radiance every other path sees in that direction (for maps, the same texel).
     s.radiance = environment_radiance(s.direction);
@@ -105,7 +117,8 @@ fn environment_is_tabulated() -> bool {
     return scene_info.env_kind == ENV_MAP || scene_info.env_kind == ENV_SKY;
 }
 
-fn environment_map_pdf(d: vec3f) -> f32 {
+fn environment_map_pdf(world: vec3f) -> f32 {
+    let d = environment_direction(world);
     let dims = textureDimensions(environment_map);
     let uv = equirect_uv(d);
     let x = min(u32(uv.x * f32(dims.x)), dims.x - 1u);

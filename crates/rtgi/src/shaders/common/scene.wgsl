@@ -86,6 +86,9 @@ struct SceneInfo {
     _pad2: f32,
     bounds_max: vec3f,
     _pad3: f32,
+    // The environment's turn (Scene::environment_rotation): the environment's own frame to the world's.
+    // Its transpose takes world directions back to the environment's frame.
+    world_from_environment: mat3x3f,
 }
 
 @group(0) @binding(0) var<uniform> scene_info: SceneInfo;

@@ -107,6 +107,20 @@ impl DirectLighting {
     /// As [`DirectLighting::new`] with the numbers of light samples given rather than taken from the
     /// parameters: a technique whose own passes carry the light of emitters or the environment sets
     /// them to zero.
+    /// The pass for a technique that lights with the environment itself: analytic lights and
+    /// emissive triangles (`setup.params`' `area_samples`), no environment samples, written into a
+    /// target of its own (`"LABEL direct"`), which is returned with it for the technique to read.
+    pub fn without_environment(
+        setup: &TechniqueSetup,
+        label: &str,
+    ) -> Result<(Self, wgpu::Texture), RenderError> {
+        let (w, h) = (setup.frame.width, setup.frame.height);
+        let target = compute::storage_texture(setup.ctx, &format!("{label} direct"), w, h, OUTPUT_FORMAT);
+        let samples = LightSamples { area: setup.params.int("area_samples") as u32, environment: 0 };
+        let direct = Self::with_samples(setup, &target, DirectOutput::Replace, samples)?;
+        Ok((direct, target))
+    }
+
     pub fn with_samples(
         setup: &TechniqueSetup,
         target: &wgpu::Texture,

@@ -23,7 +23,7 @@ use crate::shaders::Defines;
 
 use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL};
 use super::compute::{self, storage_texture_entry};
-use super::direct::{DIRECT_PARAMS, DirectLighting, DirectOutput, LightSamples};
+use super::direct::{DIRECT_PARAMS, DirectLighting};
 use super::env_projection::{EnvironmentProjection, PROJECTION_BANDS_PARAM};
 use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, TechniqueSetup};
 
@@ -196,12 +196,9 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     let levels = p.int("roughness_levels") as u32;
     let table_samples = p.int("table_samples") as u32;
     let bands = p.int("projection_bands") as u32;
-    let (w, h) = (setup.frame.width, setup.frame.height);
 
     // The environment is this technique's: the direct pass adds lights and emitters only.
-    let direct_target = compute::storage_texture(ctx, "env-harmonics direct", w, h, OUTPUT_FORMAT);
-    let samples = LightSamples { area: p.int("area_samples") as u32, environment: 0 };
-    let direct = DirectLighting::with_samples(setup, &direct_target, DirectOutput::Replace, samples)?;
+    let (direct, direct_target) = DirectLighting::without_environment(setup, "env-harmonics")?;
 
     let harmonic = basis != Basis::Sampled;
     let shape = BrdfTableShape {
@@ -417,6 +414,8 @@ impl Technique for EnvHarmonics {
                 "environment_coefficients_per_colour".to_string(),
                 f64::from(h.projection.coefficient_count()),
             );
+            c.insert("environment_projections".to_string(), h.projection.projections as f64);
+            c.insert("environment_rotations".to_string(), h.projection.rotations as f64);
         }
         Ok(c)
     }

@@ -1,7 +1,6 @@
 use glam::{DVec3, Vec3};
 
 use super::*;
-use crate::gpu::readback::read_texture;
 use crate::params::ParamValues;
 use crate::scene::{Environment, Material};
 use crate::shaders::validate;
@@ -69,9 +68,7 @@ fn params(settings: &[(&str, &str)]) -> ParamValues {
 fn render(f: &mut Fixture, settings: &[(&str, &str)], frames: u32) -> Vec<Vec3> {
     let p = params(settings);
     let mut technique = create(&f.setup(&p)).expect("env-harmonics");
-    f.render_frames(technique.as_mut(), frames);
-    let image = read_texture(&f.ctx, &f.output, 16).expect("image");
-    bytemuck::cast_slice::<u8, [f32; 4]>(&image).iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect()
+    f.render_rgb(technique.as_mut(), frames)
 }
 
 /// `spheres-env` with a uniform environment of radiance `l`.

@@ -2,6 +2,11 @@
 //! light with environment harmonics (`env-harmonics`, `prt`): radiance read through
 //! common/environment.wgsl (what the path tracer sees) on a grid of equal-area bands in z × as many
 //! uniform steps in φ (project.wgsl), run once and again whenever the environment changes.
+//!
+//! The projection is of the environment in its own frame; the world's coefficients are its SH rotation
+//! by the scene's environment turn ([`crate::scene::Scene::environment_rotation`]). A turning
+//! environment therefore costs one small matrix product per frame (band l's (2l+1)² matrix, built on
+//! the CPU by [`crate::hsh::sh_rotation`], applied on the GPU), not a projection.
 
 use crate::gpu::Profiler;
 use crate::gpu::dispatch::workgroups_for;
@@ -30,15 +35,29 @@ const PHI_PER_DISPATCH: u32 = 64;
 pub struct EnvironmentProjection {
     partial: wgpu::ComputePipeline,
     reduce: wgpu::ComputePipeline,
+    rotate: wgpu::ComputePipeline,
     group: wgpu::BindGroup,
     slots: DispatchSlots,
     partials: wgpu::Buffer,
-    /// The environment's SH coefficients (order² of them), one `vec4f` each: radiance in rgb.
+    /// The SH rotation's band matrices, row-major, band after band.
+    rotation_matrices: wgpu::Buffer,
+    /// The world's SH coefficients of the environment (order² of them), one `vec4f` each: radiance in
+    /// rgb.
     pub coefficients: wgpu::Buffer,
     order: u32,
     bands: u32,
     projected: bool,
+    /// The turn `coefficients` were rotated by, if they are current.
+    rotated_by: Option<glam::Mat3>,
+    /// Projections and rotations run so far (a turning environment must not project again).
+    pub projections: u64,
+    pub rotations: u64,
     max_workgroups: u32,
+}
+
+/// Floats in the band matrices of an order-`order` SH rotation: Σ_{l<order} (2l+1)².
+fn rotation_floats(order: u32) -> u32 {
+    (0..order).map(|l| (2 * l + 1) * (2 * l + 1)).sum()
 }
 
 impl EnvironmentProjection {
@@ -48,6 +67,16 @@ impl EnvironmentProjection {
         let count = order * order;
         let coefficients =
             compute::storage_buffer(ctx, &format!("{label} environment sh"), 16 * u64::from(count));
+        let unrotated = compute::storage_buffer(
+            ctx,
+            &format!("{label} environment sh, unrotated"),
+            16 * u64::from(count),
+        );
+        let rotation_matrices = compute::storage_buffer(
+            ctx,
+            &format!("{label} environment sh rotation"),
+            4 * u64::from(rotation_floats(order)),
+        );
         let partials = compute::storage_buffer(
             ctx,
             &format!("{label} environment partial sums"),
@@ -63,13 +92,21 @@ impl EnvironmentProjection {
                 compute::storage_buffer_entry(0, false),
                 compute::storage_buffer_entry(1, false),
                 slots.entry(2),
+                compute::storage_buffer_entry(3, false),
+                compute::storage_buffer_entry(4, true),
             ],
         );
         let group = compute::bind_group(
             ctx,
             "environment projection",
             &layout,
-            &[partials.as_entire_binding(), coefficients.as_entire_binding(), slots.resource()],
+            &[
+                partials.as_entire_binding(),
+                unrotated.as_entire_binding(),
+                slots.resource(),
+                coefficients.as_entire_binding(),
+                rotation_matrices.as_entire_binding(),
+            ],
         );
         let defines = setup
             .gpu_scene
@@ -83,38 +120,66 @@ impl EnvironmentProjection {
         Ok(EnvironmentProjection {
             partial: pipeline("partial")?,
             reduce: pipeline("reduce")?,
+            rotate: pipeline("rotate")?,
             group,
             slots,
             partials,
+            rotation_matrices,
             coefficients,
             order,
             bands,
             projected: false,
+            rotated_by: None,
+            projections: 0,
+            rotations: 0,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
         })
     }
 
-    /// Projects the environment unless the last projection is still current.
+    /// Projects the environment unless the last projection is still current, and rotates the projection
+    /// into the world unless the environment's turn is the one last applied.
     pub fn project(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
-        if self.projected {
+        let turn = fc.gpu_scene.world_from_environment();
+        if self.projected && self.rotated_by == Some(turn) {
             return Ok(());
         }
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         let count = self.order * self.order;
-        profiler.pass(fc.ctx, "environment projection", |encoder| {
-            encoder.clear_buffer(&self.partials, 0, None);
+        if !self.projected {
+            profiler.pass(fc.ctx, "environment projection", |encoder| {
+                encoder.clear_buffer(&self.partials, 0, None);
+                let mut pass = crate::gpu::dispatch::compute_pass(
+                    encoder,
+                    "environment projection",
+                    &self.partial,
+                    &groups,
+                );
+                let [x, y, _] = workgroups_for(self.bands * count, WORKGROUP, self.max_workgroups);
+                for offset in self.slots.offsets() {
+                    pass.set_bind_group(2, &self.group, &[offset]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+                pass.set_pipeline(&self.reduce);
+                pass.set_bind_group(2, &self.group, &[0]);
+                pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
+            })?;
+            self.projected = true;
+            self.projections += 1;
+        }
+        if self.rotated_by != Some(turn) {
+            let rotation = crate::hsh::sh_rotation(self.order as usize, turn.as_dmat3());
+            let floats: Vec<f32> =
+                (0..self.order as usize).flat_map(|l| rotation.band(l).iter().map(|&v| v as f32)).collect();
+            fc.ctx.queue.write_buffer(&self.rotation_matrices, 0, bytemuck::cast_slice(&floats));
+        }
+        profiler.pass(fc.ctx, "environment rotation", |encoder| {
             let mut pass =
-                crate::gpu::dispatch::compute_pass(encoder, "environment projection", &self.partial, &groups);
-            let [x, y, _] = workgroups_for(self.bands * count, WORKGROUP, self.max_workgroups);
-            for offset in self.slots.offsets() {
-                pass.set_bind_group(2, &self.group, &[offset]);
-                pass.dispatch_workgroups(x, y, 1);
-            }
-            pass.set_pipeline(&self.reduce);
+                crate::gpu::dispatch::compute_pass(encoder, "environment rotation", &self.rotate, &groups);
             pass.set_bind_group(2, &self.group, &[0]);
             pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
         })?;
-        self.projected = true;
+        self.rotated_by = Some(turn);
+        self.rotations += 1;
         Ok(())
     }
 

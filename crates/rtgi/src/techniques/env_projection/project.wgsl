@@ -1,8 +1,10 @@
-// The SH projection of the environment (the thesis's step 1 of §3.5.3), in two passes. `partial`: one
+// The SH projection of the environment (the thesis's step 1 of §3.5.3) in its own frame, in two passes,
+// and its rotation into the world (a third). `partial`: one
 // invocation per coefficient of each band of equal area in z (PROJECTION_BANDS of them, midpoints in
 // z), adding PHI_PER_DISPATCH of the band's PROJECTION_BANDS uniform steps in φ per dispatch into its
 // own partial sum. `reduce`: one invocation per coefficient sums the rows and scales by the 4π / N weight
-// of every direction. Radiance is read through common/environment.wgsl, the same function the path
+// of every direction. `rotate`: one invocation per coefficient applies its band's rotation matrix
+// (hsh.rs sh_rotation, written by the host whenever the environment's turn changes). Radiance is read through common/environment.wgsl, the same function the path
 // tracer sees.
 
 #import common/environment.wgsl
@@ -15,8 +17,10 @@ struct Slot {
 }
 
 @group(2) @binding(0) var<storage, read_write> partials: array<vec4f>;
-@group(2) @binding(1) var<storage, read_write> environment_sh: array<vec4f>;
+@group(2) @binding(1) var<storage, read_write> unrotated_sh: array<vec4f>;
 @group(2) @binding(2) var<uniform> slot: Slot;
+@group(2) @binding(3) var<storage, read_write> environment_sh: array<vec4f>;
+@group(2) @binding(4) var<storage, read> rotation_matrices: array<f32>;
 
 @compute @workgroup_size(64)
 fn partial(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
@@ -38,7 +42,7 @@ fn partial(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) gr
         }
         let phi = TWO_PI * (f32(step) + 0.5) / f32(PROJECTION_BANDS);
         let d = vec3f(r * cos(phi), r * sin(phi), z);
-        sum += environment_radiance(d) * sh_one(k, d);
+        sum += environment_radiance_unrotated(d) * sh_one(k, d);
     }
     partials[index] += vec4f(sum, 0.0);
 }
@@ -55,5 +59,24 @@ fn reduce(@builtin(global_invocation_id) id: vec3u) {
         sum += partials[band * count + k].rgb;
     }
     let weight = 4.0 * PI / f32(PROJECTION_BANDS * PROJECTION_BANDS);
-    environment_sh[k] = vec4f(sum * weight, 0.0);
+    unrotated_sh[k] = vec4f(sum * weight, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn rotate(@builtin(global_invocation_id) id: vec3u) {
+    let k = id.x;
+    if k >= slot.order * slot.order {
+        return;
+    }
+    let l = u32(sqrt(f32(k) + 0.5));
+    let n = 2u * l + 1u;
+    let row = k - l * l;
+    // Σ_{j<l} (2j+1)² = l(4l² − 1)/3 floats of the lower bands come first.
+    let first = select(0u, l * (4u * l * l - 1u) / 3u, l > 0u);
+    let band = first + row * n;
+    var sum = vec3f(0.0);
+    for (var j = 0u; j < n; j++) {
+        sum += rotation_matrices[band + j] * unrotated_sh[l * l + j].rgb;
+    }
+    environment_sh[k] = vec4f(sum, 0.0);
 }

@@ -21,7 +21,7 @@ use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
 
 use super::compute::{self, DispatchSlots, storage_texture_entry};
-use super::direct::{DIRECT_PARAMS, DirectLighting, DirectOutput, LightSamples};
+use super::direct::{DIRECT_PARAMS, DirectLighting};
 use super::env_projection::{EnvironmentProjection, PROJECTION_BANDS_PARAM};
 use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, TechniqueSetup};
 
@@ -36,7 +36,7 @@ const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
 
 /// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
 /// own.
-pub const PARAMS: [ParamSpec; 12] = [
+pub const PARAMS: [ParamSpec; 13] = [
     DIRECT_PARAMS[0],
     DIRECT_PARAMS[1],
     DIRECT_PARAMS[2],
@@ -71,6 +71,13 @@ pub const PARAMS: [ParamSpec; 12] = [
         doc: "cosine-distributed directions per vertex of the precomputation",
     },
     PROJECTION_BANDS_PARAM,
+    ParamSpec {
+        name: "transfer_cache",
+        kind: ParamKind::Choice(&["on", "off"]),
+        default: "on",
+        doc: "on: keep the first geometry's transfer on disk (RTGI_CACHE_DIR/precomputed, keyed by the \
+              geometry, materials, settings and code) and load it instead of precomputing again",
+    },
 ];
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -116,6 +123,56 @@ struct Transfer {
     bounces: u32,
     /// The geometry the vectors were computed for; `None` before the first frame.
     computed_for: Option<u64>,
+    cache: Option<TransferCache>,
+}
+
+/// The on-disk copy of the transfer of the geometry the technique was created for.
+struct TransferCache {
+    disk: crate::cache::DiskCache,
+    /// Hashes everything the vectors depend on (see [`transfer_key`]).
+    key: u64,
+    /// The GPU scene's geometry version at creation: later geometry (moved meshes) is not cached.
+    geometry: u64,
+    /// The vectors were computed in a frame not yet read back and written to disk.
+    store_pending: bool,
+    loads: u32,
+    stores: u32,
+    /// Why the last write failed, for the warnings.
+    error: Option<String>,
+}
+
+/// The cache key of the transfer: the crate version, this file (how the passes are dispatched), the
+/// transfer shader as composed with its defines and imports, the settings, and every vertex, index,
+/// material and texture of the scene the GPU scene was uploaded from (interreflection reads albedos).
+fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: [u32; 4]) -> u64 {
+    let mut h = crate::cache::StableHasher::default();
+    h.str(env!("CARGO_PKG_VERSION")).str(include_str!("mod.rs")).str(composed_shader);
+    for v in settings {
+        h.u32(v);
+    }
+    for m in &scene.meshes {
+        h.u32(m.material).u32(m.positions.len() as u32).u32(m.indices.len() as u32);
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            h.f32s(&p.to_array()).f32s(&n.to_array());
+        }
+        for uv in &m.uvs {
+            h.f32s(&uv.to_array());
+        }
+        for i in &m.indices {
+            h.u32(*i);
+        }
+    }
+    for m in &scene.materials {
+        h.f32s(&m.base_color.to_array()).f32s(&[m.metallic, m.roughness, m.specular]);
+        h.u32(u32::from(m.double_sided));
+        for t in [m.base_color_texture, m.metallic_roughness_texture] {
+            h.u32(t.map_or(u32::MAX, |t| t.texture));
+        }
+    }
+    for t in &scene.textures {
+        h.u32(t.width).u32(t.height).u32(u32::from(t.srgb)).bytes(&t.rgba8);
+    }
+    h.finish()
 }
 
 struct Prt {
@@ -126,6 +183,9 @@ struct Prt {
     shade_group: wgpu::BindGroup,
     samples: u32,
     max_workgroups: u32,
+    /// Whether some meshes may move (the GPU scene has instances): each move recomputes every
+    /// vertex's transfer, which the user is warned of.
+    moving_meshes: bool,
 }
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -144,13 +204,9 @@ impl Prt {
         let bounces = if interreflected { p.int("bounces") as u32 } else { 0 };
         let vertices = u32::try_from(setup.scene.vertex_count())
             .map_err(|_| RenderError::InvalidSettings("prt: the scene has more than 2³² vertices".into()))?;
-        let (w, h) = (setup.frame.width, setup.frame.height);
 
         // The environment is this technique's: the direct pass adds lights and emitters only.
-        let direct_target = compute::storage_texture(ctx, "prt direct", w, h, OUTPUT_FORMAT);
-        let light_samples = LightSamples { area: p.int("area_samples") as u32, environment: 0 };
-        let direct =
-            DirectLighting::with_samples(setup, &direct_target, DirectOutput::Replace, light_samples)?;
+        let (direct, direct_target) = DirectLighting::without_environment(setup, "prt")?;
         let projection = EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32)?;
 
         let bytes = u64::from(vertices.max(1)) * u64::from(count * channels) * 4;
@@ -213,6 +269,19 @@ impl Prt {
                 &layouts(&transfer_layout),
             )
         };
+        let cache = (p.choice("transfer_cache") == "on").then(|| -> Result<TransferCache, RenderError> {
+            let composed = crate::shaders::compose("prt transfer", include_str!("transfer.wgsl"), &defines)?;
+            Ok(TransferCache {
+                disk: crate::cache::DiskCache::new(crate::cache::precomputed_dir(), "prt-transfer"),
+                key: transfer_key(setup.scene, &composed, [order, samples, channels, bounces]),
+                geometry: setup.gpu_scene.geometry_version,
+                store_pending: false,
+                loads: 0,
+                stores: 0,
+                error: None,
+            })
+        });
+        let cache = cache.transpose()?;
         let accumulate = transfer_pipeline("accumulate")?;
         let interreflect = transfer_pipeline("interreflect")?;
         let add_bounce = transfer_pipeline("add_bounce")?;
@@ -270,20 +339,46 @@ impl Prt {
                 floats_per_vertex: count * channels,
                 bounces,
                 computed_for: None,
+                cache,
             },
             shade,
             shade_group,
             samples,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
+            moving_meshes: setup.gpu_scene.has_instances(),
         })
     }
 
-    /// Computes the transfer vectors unless they belong to the current geometry.
+    /// Writes vectors computed in an earlier (now submitted) frame to the disk cache. A failed write
+    /// is a warning, not an error: the technique renders the same without the cache.
+    fn store_transfer(&mut self, ctx: &GpuContext) -> Result<(), RenderError> {
+        let t = &mut self.transfer;
+        let Some(cache) = t.cache.as_mut().filter(|c| c.store_pending) else { return Ok(()) };
+        cache.store_pending = false;
+        let bytes = crate::gpu::readback::read_buffer(ctx, &t.buffer, 0, t.buffer.size())?;
+        match cache.disk.store(cache.key, &bytes) {
+            Ok(_) => cache.stores += 1,
+            Err(e) => cache.error = Some(e),
+        }
+        Ok(())
+    }
+
+    /// Computes the transfer vectors unless they belong to the current geometry, or loads them from
+    /// the disk cache for the geometry the technique was created for.
     fn precompute(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let geometry = fc.gpu_scene.geometry_version;
         let t = &mut self.transfer;
         if t.computed_for == Some(geometry) {
             return Ok(());
+        }
+        if let Some(cache) = t.cache.as_mut().filter(|c| c.geometry == geometry) {
+            if let Some(bytes) = cache.disk.load(cache.key, t.buffer.size() as usize) {
+                fc.ctx.queue.write_buffer(&t.buffer, 0, &bytes);
+                cache.loads += 1;
+                t.computed_for = Some(geometry);
+                return Ok(());
+            }
+            cache.store_pending = true;
         }
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         let [x, y, _] = workgroups_for(t.vertices, WORKGROUP, self.max_workgroups);
@@ -325,6 +420,7 @@ impl Prt {
 
 impl Technique for Prt {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        self.store_transfer(fc.ctx)?;
         self.precompute(fc, profiler)?;
         self.projection.project(fc, profiler)?;
         self.direct.render(fc, profiler)?;
@@ -332,7 +428,8 @@ impl Technique for Prt {
     }
 
     // Lights and emitters are the direct pass's, read every frame; a new environment is projected
-    // again and new geometry gets new transfer vectors before the next frame.
+    // again (a turned one only rotated, by the projection itself) and new geometry gets new transfer
+    // vectors before the next frame.
     fn scene_changed(
         &mut self,
         _: &GpuContext,
@@ -347,10 +444,16 @@ impl Technique for Prt {
 
     fn counters(
         &mut self,
-        _: &GpuContext,
+        ctx: &GpuContext,
         _: &super::Measured,
     ) -> Result<std::collections::BTreeMap<String, f64>, RenderError> {
+        // The stats come after the last frame: a run of one frame still leaves its transfer on disk.
+        self.store_transfer(ctx)?;
+        let cache = self.transfer.cache.as_ref();
+        let cache_count = |f: fn(&TransferCache) -> u32| f64::from(cache.map_or(0, f));
         Ok(std::collections::BTreeMap::from([
+            ("transfer_cache_loads".to_string(), cache_count(|c| c.loads)),
+            ("transfer_cache_stores".to_string(), cache_count(|c| c.stores)),
             ("transfer_vertices".to_string(), f64::from(self.transfer.vertices)),
             ("transfer_floats_per_vertex".to_string(), f64::from(self.transfer.floats_per_vertex)),
             ("transfer_bytes".to_string(), self.transfer.buffer.size() as f64),
@@ -362,14 +465,27 @@ impl Technique for Prt {
             ),
             // The direct pass's target and the output, both f32 RGBA.
             ("output_bytes_per_pixel".to_string(), 32.0),
+            ("environment_projections".to_string(), self.projection.projections as f64),
+            ("environment_rotations".to_string(), self.projection.rotations as f64),
         ]))
     }
 
     fn warnings(&self) -> Vec<String> {
-        vec![
+        let mut warnings = vec![
             "prt: diffuse transfer only (specular lobes get no environment light; glossy transfer is not built); \
              back faces get no environment light"
                 .into(),
-        ]
+        ];
+        if let Some(e) = self.transfer.cache.as_ref().and_then(|c| c.error.as_ref()) {
+            warnings.push(format!("prt: the transfer was not cached ({e})"));
+        }
+        if self.moving_meshes {
+            warnings.push(
+                "prt: the scene has moving meshes; every frame in which one moves recomputes the transfer of \
+                 every vertex (precomputed transfer assumes still geometry)"
+                    .into(),
+            );
+        }
+        warnings
     }
 }

@@ -259,7 +259,9 @@ impl ReflectiveShadowMap {
     pub fn scene_changed(&mut self, ctx: &GpuContext, gpu_scene: &GpuScene, change: SceneChange) -> bool {
         // The GPU scene keeps the count and kinds of its lights, so the views keep their layers. Moved
         // geometry changes the bounds the views frame; `render` sees the new geometry version.
-        if change == SceneChange::Environment || gpu_scene.lights.is_empty() {
+        if matches!(change, SceneChange::Environment | SceneChange::EnvironmentRotation)
+            || gpu_scene.lights.is_empty()
+        {
             return false;
         }
         let views = rsm_views(&gpu_scene.lights, gpu_scene.bounds(), self.size);

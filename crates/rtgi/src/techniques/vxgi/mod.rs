@@ -675,7 +675,9 @@ impl Technique for Vxgi {
         change: SceneChange,
     ) -> Result<bool, RenderError> {
         match change {
-            SceneChange::Lights | SceneChange::Environment => self.light_dirty = true,
+            SceneChange::Lights | SceneChange::Environment | SceneChange::EnvironmentRotation => {
+                self.light_dirty = true
+            }
             SceneChange::Geometry => self.voxels_dirty = [true; MAX_CLIPMAPS],
         }
         Ok(true)
