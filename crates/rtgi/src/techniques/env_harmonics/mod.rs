@@ -414,8 +414,7 @@ impl Technique for EnvHarmonics {
                 "environment_coefficients_per_colour".to_string(),
                 f64::from(h.projection.coefficient_count()),
             );
-            c.insert("environment_projections".to_string(), h.projection.projections as f64);
-            c.insert("environment_rotations".to_string(), h.projection.rotations as f64);
+            c.extend(h.projection.counters());
         }
         Ok(c)
     }

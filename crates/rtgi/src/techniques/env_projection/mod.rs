@@ -52,6 +52,8 @@ pub struct EnvironmentProjection {
     /// Projections and rotations run so far (a turning environment must not project again).
     pub projections: u64,
     pub rotations: u64,
+    /// CPU milliseconds spent building band matrices (once per new turn), in all.
+    pub rotation_matrix_ms: f64,
     max_workgroups: u32,
 }
 
@@ -132,6 +134,7 @@ impl EnvironmentProjection {
             rotated_by: None,
             projections: 0,
             rotations: 0,
+            rotation_matrix_ms: 0.0,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
         })
     }
@@ -167,9 +170,11 @@ impl EnvironmentProjection {
             self.projections += 1;
         }
         if self.rotated_by != Some(turn) {
+            let start = std::time::Instant::now();
             let rotation = crate::hsh::sh_rotation(self.order as usize, turn.as_dmat3());
             let floats: Vec<f32> =
                 (0..self.order as usize).flat_map(|l| rotation.band(l).iter().map(|&v| v as f32)).collect();
+            self.rotation_matrix_ms += start.elapsed().as_secs_f64() * 1e3;
             fc.ctx.queue.write_buffer(&self.rotation_matrices, 0, bytemuck::cast_slice(&floats));
         }
         profiler.pass(fc.ctx, "environment rotation", |encoder| {
@@ -186,6 +191,17 @@ impl EnvironmentProjection {
     /// The environment changed: project it again before the next frame.
     pub fn invalidate(&mut self) {
         self.projected = false;
+    }
+
+    /// The stats' figures of the projection: projections, rotations and the mean CPU time of building
+    /// a turn's band matrices (not in the GPU times).
+    pub fn counters(&self) -> [(String, f64); 3] {
+        let mean = if self.rotations > 0 { self.rotation_matrix_ms / self.rotations as f64 } else { 0.0 };
+        [
+            ("environment_projections".to_string(), self.projections as f64),
+            ("environment_rotations".to_string(), self.rotations as f64),
+            ("environment_rotation_matrix_cpu_ms".to_string(), mean),
+        ]
     }
 
     /// SH coefficients per colour channel.

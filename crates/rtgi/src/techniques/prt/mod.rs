@@ -451,7 +451,7 @@ impl Technique for Prt {
         self.store_transfer(ctx)?;
         let cache = self.transfer.cache.as_ref();
         let cache_count = |f: fn(&TransferCache) -> u32| f64::from(cache.map_or(0, f));
-        Ok(std::collections::BTreeMap::from([
+        let mut counters = std::collections::BTreeMap::from([
             ("transfer_cache_loads".to_string(), cache_count(|c| c.loads)),
             ("transfer_cache_stores".to_string(), cache_count(|c| c.stores)),
             ("transfer_vertices".to_string(), f64::from(self.transfer.vertices)),
@@ -465,9 +465,9 @@ impl Technique for Prt {
             ),
             // The direct pass's target and the output, both f32 RGBA.
             ("output_bytes_per_pixel".to_string(), 32.0),
-            ("environment_projections".to_string(), self.projection.projections as f64),
-            ("environment_rotations".to_string(), self.projection.rotations as f64),
-        ]))
+        ]);
+        counters.extend(self.projection.counters());
+        Ok(counters)
     }
 
     fn warnings(&self) -> Vec<String> {
