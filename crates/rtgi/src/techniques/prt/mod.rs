@@ -539,14 +539,13 @@ impl Prt {
             return Ok(());
         }
         let [x, y, _] = workgroups_for(t.vertices * t.coefficients, WORKGROUP, self.max_workgroups);
+        let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         profiler.pass(fc.ctx, "transferred radiance", |encoder| {
-            compute::dispatch(
-                encoder,
-                "transferred radiance",
-                lighting,
-                &[&fc.gpu_scene.bind_group, &fc.frame.bind_group, group],
-                [x, y, 1],
-            );
+            let mut pass =
+                crate::gpu::dispatch::compute_pass(encoder, "transferred radiance", lighting, &groups);
+            // The first batch's slot: the pass reads only its order.
+            pass.set_bind_group(2, group, &[0]);
+            pass.dispatch_workgroups(x, y, 1);
         })?;
         self.lit = true;
         Ok(())

@@ -415,9 +415,8 @@ fn an_open_vertex_s_glossy_matrix_is_the_gram_matrix_of_its_hemisphere() {
     let vertices: &[GpuVertex] = bytemuck::cast_slice(&bytes);
     let pairs = count * (count + 1) / 2;
     assert_eq!(prt.transfer.floats_per_vertex as usize, pairs);
-    assert_eq!(prt.transfer.vertices, 4, "the ground is one quad");
     let mut worst = 0.0f64;
-    for (v, vertex) in vertices.iter().enumerate().take(4) {
+    for (v, vertex) in vertices.iter().enumerate().take(prt.transfer.vertices as usize) {
         let n = gpu_vertex_normal(vertex);
         let to_world = glam::DQuat::from_rotation_arc(glam::DVec3::Z, n);
         let mut gram = vec![0.0f64; count * count];
@@ -439,21 +438,28 @@ fn an_open_vertex_s_glossy_matrix_is_the_gram_matrix_of_its_hemisphere() {
         }
     }
     eprintln!("worst |M − ∫_H Y_i Y_j| {worst:e} (M_00 = 1/2)");
-    // Measured …: the estimate's error over 2048 lattice directions. A matrix packed or indexed
-    // wrongly, a full sphere or a cosine weight is off by 0.1 or more.
-    assert!(worst < 0.02, "{worst}");
+    // Measured 1.43e-3 (961 vertices, order 3): the estimate's error over 2048 lattice directions. A
+    // matrix packed or indexed wrongly, a harmonic of the wrong sign, the full sphere or a cosine
+    // weight is off by 0.1 or more.
+    assert!(worst < 3e-3, "{worst}");
 }
 
 /// Glossy transfer brings the environment to the specular lobes diffuse transfer leaves dark: on the
-/// material chart of `spheres-env` (dielectric and metal spheres, roughness 0, 0.5 and 1) it is far
-/// closer to the direct pass's ray-traced environment light than shadowed diffuse transfer.
+/// material chart of `spheres-env` (dielectric and metal spheres, roughness 0.5, 0.75 and 1: the
+/// chart's mirrors would need far more than 4 bands; the ground black, so that only the spheres count)
+/// it is far closer to the direct pass's ray-traced environment light than shadowed diffuse transfer.
 #[test]
 fn glossy_transfer_lights_the_specular_lobes() {
-    let scene = crate::scene::builtin::build("spheres-env", &[("count".into(), "3".into())]).expect("scene");
+    let mut scene =
+        crate::scene::builtin::build("spheres-env", &[("count".into(), "3".into())]).expect("scene");
+    for m in &mut scene.materials {
+        m.roughness = 0.5 + 0.5 * m.roughness;
+    }
+    scene.materials[0] = Material { specular: 0.0, ..Material::diffuse("ground", Vec3::ZERO) };
     let mut f = fixture_of(scene, 64, 40);
     let reference = direct_environment_light(&mut f);
     let mut error = |transfer: &str| {
-        let p = params(&[("transfer", transfer), ("order", "6"), ("transfer_samples", "256")]);
+        let p = params(&[("transfer", transfer), ("order", "4"), ("transfer_samples", "256")]);
         let mut prt = Prt::new(&f.setup(&p)).expect("prt");
         mean_relative_difference(&f.render_rgb(&mut prt, 1), &reference)
     };
@@ -461,8 +467,9 @@ fn glossy_transfer_lights_the_specular_lobes() {
     eprintln!(
         "mean relative difference from the direct pass: glossy {glossy:.4}, diffuse (shadowed) {diffuse:.4}"
     );
-    // Measured …
-    assert!(glossy < 0.1, "glossy {glossy}");
+    // Measured 0.0323 and 0.2320 (order 4, 256 directions per vertex): diffuse transfer leaves the
+    // metal spheres black and the dielectrics without their sheen.
+    assert!(glossy < 0.06, "glossy {glossy}");
     assert!(glossy < 0.5 * diffuse, "glossy {glossy} not clearly below diffuse transfer's {diffuse}");
 }
 
