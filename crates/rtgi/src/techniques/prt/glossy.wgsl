@@ -36,53 +36,6 @@ fn glossy_direction(vertex: u32, s: u32, n: vec3f) -> vec3f {
     return local_to_world(sample_cone(transfer_lattice(vertex, s), 0.0), n);
 }
 
-// harmonics[first + k] = weight · Y_k(d) for the batch's order² coefficients: hsh.wgsl's
-// associated-Legendre recurrence (its conventions: index l(l+1)+m, no Condon–Shortley phase), run once
-// for every coefficient rather than once per coefficient as sh_one does, which costs 10–20 times more.
-fn store_harmonics(first: u32, d: vec3f, weight: f32) {
-    let z = clamp(d.z, -1.0, 1.0);
-    let s = sqrt(max(0.0, 1.0 - z * z));
-    let r = length(d.xy);
-    let e = select(vec2f(1.0, 0.0), d.xy / r, r > 1e-20);
-    var pmm = 1.0;
-    // e^{imφ}
-    var turn = vec2f(1.0, 0.0);
-    for (var m = 0u; m < batch.order; m++) {
-        if m > 0u {
-            pmm *= f32(2u * m - 1u) * s;
-            turn = vec2f(turn.x * e.x - turn.y * e.y, turn.x * e.y + turn.y * e.x);
-        }
-        var p_prev = 0.0;
-        var p = pmm;
-        // (l − m)! / (l + m)!, from l = m on.
-        var ratio = 1.0;
-        for (var k = 2u; k <= 2u * m; k++) {
-            ratio /= f32(k);
-        }
-        for (var l = m; l < batch.order; l++) {
-            if l == m + 1u {
-                p_prev = p;
-                p = z * f32(2u * m + 1u) * pmm;
-            } else if l > m + 1u {
-                let next = (z * f32(2u * l - 1u) * p - f32(l + m - 1u) * p_prev) / f32(l - m);
-                p_prev = p;
-                p = next;
-            }
-            if l > m {
-                ratio *= f32(l - m) / f32(l + m);
-            }
-            let scale = weight * sqrt(f32(2u * l + 1u) * ratio / (4.0 * PI)) * p;
-            let centre = first + l * l + l;
-            if m == 0u {
-                harmonics[centre] = scale;
-            } else {
-                harmonics[centre + m] = HSH_SQRT_2 * scale * turn.x;
-                harmonics[centre - m] = HSH_SQRT_2 * scale * turn.y;
-            }
-        }
-    }
-}
-
 // A workgroup per vertex over the (x, y) spread of gpu::dispatch::workgroups_for.
 @compute @workgroup_size(64)
 fn accumulate_matrix(
@@ -101,25 +54,30 @@ fn accumulate_matrix(
         d = glossy_direction(vertex, sample, n);
         visible = !SHADOWED || !trace_any(Ray(offset_origin(v.position, n), d), 0.0, FLT_MAX);
     }
-    store_harmonics(lane * count, d, select(0.0, 1.0, visible));
+    for (var k = 0u; k < count; k++) {
+        harmonics[lane * count + k] = select(0.0, sh_one(k, d), visible);
+    }
     workgroupBarrier();
     if vertex >= VERTEX_COUNT {
         return;
     }
     let pairs = count * (count + 1u) / 2u;
     let weight = 2.0 * PI / f32(TRANSFER_SAMPLES);
-    var entry = 0u;
-    for (var i = 0u; i < count; i++) {
-        for (var j = i; j < count; j++) {
-            if entry % GLOSSY_BATCH == lane {
-                var sum = 0.0;
-                for (var s = 0u; s < GLOSSY_BATCH; s++) {
-                    sum += harmonics[s * count + i] * harmonics[s * count + j];
-                }
-                transfer[vertex * pairs + entry] += sum * weight;
-            }
-            entry++;
+    // Entries lane, lane + 64, …: every invocation busy on its own entries (a test per entry of which
+    // invocation owns it would leave all but one of a SIMD group's lanes idle).
+    var i = 0u;
+    var row_start = 0u;
+    for (var entry = lane; entry < pairs; entry += GLOSSY_BATCH) {
+        while entry >= row_start + count - i {
+            row_start += count - i;
+            i++;
         }
+        let j = i + entry - row_start;
+        var sum = 0.0;
+        for (var s = 0u; s < GLOSSY_BATCH; s++) {
+            sum += harmonics[s * count + i] * harmonics[s * count + j];
+        }
+        transfer[vertex * pairs + entry] += sum * weight;
     }
 }
 
