@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Prints docs/measurements/prt-lavapipe.md: precomputed radiance transfer (diffuse, per vertex) on spheres-env
-against the path tracer at equal time (issue 14).
+"""Prints docs/measurements/prt-lavapipe.md: precomputed radiance transfer (diffuse and glossy, per vertex) on
+spheres-env and pillars against the path tracer at equal time (issue 14).
 
     cargo build --release -p rtgi-cli && python3 scripts/measure-prt.py   # about 10 min on lavapipe
     python3 scripts/measure-prt.py --size 1920x1080 --doc prt-gpu            # a GPU
@@ -47,14 +47,18 @@ def main():
         f"# Precomputed radiance transfer ({run.width}×{run.height})", "",
         run.header,
         "",
-        f"Each cell: a fresh renderer, one warm-up frame (prt precomputes its transfer vectors and projects "
+        f"Each cell: a fresh renderer, one warm-up frame (prt precomputes its transfer and projects "
         f"the environment there; the precomputation column is that pass's time), then "
         f"{suite.get('frames', 3)} timed frames, {suite.get('error_frames', 2)} of them compared with the "
         f"path-traced full-GI reference (spp: {ref_spp}). Each scene is lit by its sky alone. prt's "
-        "transfer is diffuse and per vertex: spheres-env's glossy and metal spheres get no environment light "
-        "(the reference's reflections) and its ground's two triangles hold no shadows; pillars is all "
-        "Lambertian on a ground of 9 cm cells. Unless interreflected the sky reaches each surface once; "
-        "env-harmonics shades every lobe but without visibility. "
+        "transfer is per vertex; unless glossy it is diffuse: spheres-env's glossy and metal spheres get no "
+        "environment light (the reference's reflections) from the diffuse cells, while `prt glossy` "
+        "carries the shadowed sky to every lobe through its transfer matrices (blurred to the order's "
+        "bands: the chart's mirrors stay blurred). spheres-env's ground has 1 m cells, too coarse for the "
+        "spheres' contact shadows; pillars is all Lambertian on a ground of 9 cm cells. Unless "
+        "interreflected the sky reaches each surface once; env-harmonics shades every lobe but without "
+        "visibility. The transferred-radiance pass of glossy transfer runs in the warm-up frame (the sky "
+        "is still), so the timed frames shade only. "
         "ms/frame: the whole frame's GPU time; shading: the `prt shading` pass"
         + (". On lavapipe: compare cells with each other, not with GPU figures." if cpu else "."), "",
     ]

@@ -478,6 +478,7 @@ warmup = 5
                 "lpv.toml",
                 "photon-irradiance-cache.toml",
                 "primary.toml",
+                "prt-hard-shadows.toml",
                 "prt-turning.toml",
                 "prt.toml",
                 "quick.toml",

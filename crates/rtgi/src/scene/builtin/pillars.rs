@@ -10,10 +10,22 @@ use glam::{Quat, Vec2, Vec3};
 
 use super::motion;
 use super::shapes::MeshBuilder;
-use crate::params::{ParamSpec, ParamValues};
-use crate::scene::{Camera, Environment, Material, Scene};
+use crate::params::{ParamKind, ParamSpec, ParamValues};
+use crate::scene::{Camera, Environment, EnvironmentMap, Material, Scene};
 
-pub const PARAMS: &[ParamSpec] = &[motion::ENV_ROTATION_PARAM, motion::ENVIRONMENT_ANIMATE_PARAM];
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "sky",
+        kind: ParamKind::Choice(&["glow", "patch"]),
+        default: "glow",
+        doc: "glow: the procedural sky with its broad sun glow (soft shadows); patch: the same dome without \
+              the glow, as an equirectangular map, plus a small bright disc 4° across in the glow's \
+              direction giving a surface facing it the glow's irradiance (hard shadows: the \
+              all-frequency case SH transfer blurs)",
+    },
+    motion::ENV_ROTATION_PARAM,
+    motion::ENVIRONMENT_ANIMATE_PARAM,
+];
 
 /// Pillars in the ring, its radius, and each pillar's radius and height (metres).
 const PILLARS: u32 = 8;
@@ -40,6 +52,62 @@ pub fn sky() -> Environment {
         sky_radiance: Vec3::new(0.4, 0.48, 0.64),
         ground_radiance: Vec3::new(0.15, 0.14, 0.12),
     }
+}
+
+/// `sky=patch`'s map: texels per row and rows, and each texel's sub-samples per side (the disc's rim
+/// is antialiased; 0.35° texels put about 11 texels across the disc).
+const PATCH_MAP_WIDTH: u32 = 1024;
+const PATCH_MAP_HEIGHT: u32 = 512;
+const PATCH_SUBSAMPLES: u32 = 3;
+/// The disc's angular radius.
+const PATCH_RADIUS_DEGREES: f32 = 2.0;
+
+/// The sky of `sky=patch`: [`sky`]'s dome and ground without the glow, and a disc of
+/// `PATCH_RADIUS_DEGREES` about the glow's direction whose radiance gives a surface facing it the
+/// glow's irradiance: sun_radiance · 2π/34 (∫ max(0, cos)³² cos dω about the axis) against the disc's
+/// L · π sin² r.
+pub fn patch_sky() -> Environment {
+    let Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance } = sky() else {
+        unreachable!("pillars' sky is procedural")
+    };
+    let radius = PATCH_RADIUS_DEGREES.to_radians();
+    let cos_radius = radius.cos();
+    let disc_radiance = sun_radiance * (TAU / 34.0) / (std::f32::consts::PI * radius.sin().powi(2));
+    let radiance = |d: Vec3| {
+        if d.y < 0.0 {
+            return ground_radiance;
+        }
+        let h = 1.0 - d.y;
+        let disc = if d.dot(sun_direction) >= cos_radius { disc_radiance } else { Vec3::ZERO };
+        sky_radiance * (1.0 + 0.5 * h * h) + disc
+    };
+    let (w, h, n) = (PATCH_MAP_WIDTH, PATCH_MAP_HEIGHT, PATCH_SUBSAMPLES);
+    let mut rgb = Vec::with_capacity((w * h * 3) as usize);
+    for row in 0..h {
+        for column in 0..w {
+            let mut sum = Vec3::ZERO;
+            for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
+                let u = (column as f32 + (i as f32 + 0.5) / n as f32) / w as f32;
+                let v = (row as f32 + (j as f32 + 0.5) / n as f32) / h as f32;
+                sum += radiance(equirect_direction(u, v));
+            }
+            rgb.extend_from_slice(&(sum / (n * n) as f32).to_array());
+        }
+    }
+    Environment::Map(EnvironmentMap {
+        path: "pillars:sky=patch (generated)".into(),
+        width: w,
+        height: h,
+        rgb,
+        intensity: 1.0,
+    })
+}
+
+/// The unit direction of equirectangular coordinates (u, v), as `EnvironmentMap` lays them out
+/// (common/math.wgsl equirect_direction).
+fn equirect_direction(u: f32, v: f32) -> Vec3 {
+    let (phi, theta) = (u * TAU, v * std::f32::consts::PI);
+    Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos())
 }
 
 /// The (2, 3) torus knot (a trefoil) about +Y through `centre`: the core circle's radius `radius`,
@@ -111,7 +179,7 @@ pub fn build(params: &ParamValues) -> Scene {
         materials,
         textures: Vec::new(),
         lights: Vec::new(),
-        environment: sky(),
+        environment: if params.choice("sky") == "patch" { patch_sky() } else { sky() },
         environment_rotation: Quat::IDENTITY,
         camera: Camera {
             position: Vec3::new(0.0, 3.4, 6.4),

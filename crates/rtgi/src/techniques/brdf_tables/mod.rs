@@ -16,6 +16,11 @@ use super::{FrameContext, RenderError, TechniqueSetup};
 /// `brdf_tables: array<f32>` (read-only storage) and gets the defines of [`BrdfTableShape::defines`].
 pub const LOOKUP_WGSL: &str = include_str!("lookup.wgsl");
 
+/// Shading from SH coefficients of incident radiance through the tables, composed after
+/// [`LOOKUP_WGSL`]. The composing shader declares `rotation_x90` (the buffer of
+/// [`rotation_x90_blocks`]) and defines `incident_sh(k)`.
+pub const SHADING_WGSL: &str = include_str!("shading.wgsl");
+
 /// Invocations per workgroup of the build pass.
 const WORKGROUP: u32 = 64;
 /// Samples per table element in one dispatch (long loops in one invocation are unsafe on lavapipe).
@@ -135,6 +140,30 @@ impl BrdfTables {
         self.built = true;
         Ok(true)
     }
+}
+
+/// The order-`order` SH matrices of Rx(90°), band by band (block l at l(4l² − 1)/3), as shade.wgsl
+/// reads them.
+pub fn rotation_x90_blocks(order: usize) -> Vec<f32> {
+    let r = crate::hsh::sh_rotation(order, glam::DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2));
+    (0..order).flat_map(|l| r.band(l).iter().map(|&x| x as f32).collect::<Vec<_>>()).collect()
+}
+
+/// The SH coefficients of f seen from the frame of the unit normal `n`: g(d) = f(R d) with
+/// R = Rz(φ) Ry(θ) taking +z to `n`, by the decomposition shade.wgsl uses (Z turns and the one X
+/// matrix), and the direction `d` in that frame. The CPU twin of `harmonic_environment`'s turn.
+pub fn to_normal_frame(c: &[f64], order: usize, n: glam::DVec3, d: glam::DVec3) -> (Vec<f64>, glam::DVec3) {
+    let theta = n.z.clamp(-1.0, 1.0).acos();
+    let phi = if n.x.abs() + n.y.abs() > 0.0 { n.y.atan2(n.x) } else { 0.0 };
+    let x90 = crate::hsh::sh_rotation(order, glam::DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2));
+    let x90_inverse =
+        crate::hsh::sh_rotation(order, glam::DMat3::from_rotation_x(-std::f64::consts::FRAC_PI_2));
+    let g = crate::hsh::rotate_z(c, order, -phi);
+    let g = x90.apply(&g);
+    let g = crate::hsh::rotate_z(&g, order, -theta);
+    let g = x90_inverse.apply(&g);
+    let local = glam::DMat3::from_rotation_y(-theta) * glam::DMat3::from_rotation_z(-phi) * d;
+    (g, local)
 }
 
 #[cfg(test)]

@@ -12,8 +12,6 @@
 //! at a ladder of roughnesses (see `tables.wgsl`) and the shading pass recombines them: textured
 //! materials work, and an intermediate roughness is interpolated linearly between two rungs.
 
-use glam::DMat3;
-
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
 use crate::gpu::{BufferBuilder, GpuContext, Profiler};
@@ -21,7 +19,7 @@ use crate::hsh;
 use crate::params::{ParamKind, ParamSpec};
 use crate::shaders::Defines;
 
-use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL};
+use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL, SHADING_WGSL, rotation_x90_blocks};
 use super::compute::{self, storage_texture_entry};
 use super::direct::{DIRECT_PARAMS, DirectLighting};
 use super::env_projection::{EnvironmentProjection, PROJECTION_BANDS_PARAM};
@@ -159,29 +157,6 @@ struct EnvHarmonics {
     harmonics: Option<Harmonics>,
 }
 
-/// The order-`order` SH matrices of Rx(90°), band by band (block l at l(4l² − 1)/3), as shade.wgsl
-/// reads them.
-pub fn rotation_x90_blocks(order: usize) -> Vec<f32> {
-    let r = hsh::sh_rotation(order, DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2));
-    (0..order).flat_map(|l| r.band(l).iter().map(|&x| x as f32).collect::<Vec<_>>()).collect()
-}
-
-/// The SH coefficients of f seen from the frame of the unit normal `n`: g(d) = f(R d) with
-/// R = Rz(φ) Ry(θ) taking +z to `n`, by the decomposition shade.wgsl uses (Z turns and the one X
-/// matrix), and the direction `d` in that frame. The CPU twin of `harmonic_environment`'s turn.
-pub fn to_normal_frame(c: &[f64], order: usize, n: glam::DVec3, d: glam::DVec3) -> (Vec<f64>, glam::DVec3) {
-    let theta = n.z.clamp(-1.0, 1.0).acos();
-    let phi = if n.x.abs() + n.y.abs() > 0.0 { n.y.atan2(n.x) } else { 0.0 };
-    let x90 = hsh::sh_rotation(order, DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2));
-    let x90_inverse = hsh::sh_rotation(order, DMat3::from_rotation_x(-std::f64::consts::FRAC_PI_2));
-    let g = hsh::rotate_z(c, order, -phi);
-    let g = x90.apply(&g);
-    let g = hsh::rotate_z(&g, order, -theta);
-    let g = x90_inverse.apply(&g);
-    let local = DMat3::from_rotation_y(-theta) * DMat3::from_rotation_z(-phi) * d;
-    (g, local)
-}
-
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     let ctx = setup.ctx;
     let p = setup.params;
@@ -282,7 +257,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     let shade = compute::pipeline(
         ctx,
         "env-harmonics shade",
-        &format!("{LOOKUP_WGSL}\n{}", include_str!("shade.wgsl")),
+        &format!("{LOOKUP_WGSL}\n{SHADING_WGSL}\n{}", include_str!("shade.wgsl")),
         defines.clone(),
         "main",
         &layouts(setup, &shade_layout),

@@ -4,6 +4,7 @@ use super::*;
 use crate::params::ParamValues;
 use crate::scene::{Environment, Material};
 use crate::shaders::validate;
+use crate::techniques::brdf_tables::to_normal_frame;
 use crate::techniques::fixture::{Fixture, fixture_of};
 
 fn test_defines(basis: Basis) -> Defines {
@@ -25,7 +26,11 @@ fn shaders_validate() {
         let d = test_defines(basis);
         validate("env-harmonics fold", include_str!("fold.wgsl"), &d);
         validate("env-harmonics projection", super::super::env_projection::PROJECT_WGSL, &d);
-        validate("env-harmonics shade", &format!("{LOOKUP_WGSL}\n{}", include_str!("shade.wgsl")), &d);
+        validate(
+            "env-harmonics shade",
+            &format!("{LOOKUP_WGSL}\n{SHADING_WGSL}\n{}", include_str!("shade.wgsl")),
+            &d,
+        );
     }
 }
 

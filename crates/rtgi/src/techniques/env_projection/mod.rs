@@ -140,11 +140,12 @@ impl EnvironmentProjection {
     }
 
     /// Projects the environment unless the last projection is still current, and rotates the projection
-    /// into the world unless the environment's turn is the one last applied.
-    pub fn project(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+    /// into the world unless the environment's turn is the one last applied; true when the
+    /// coefficients changed.
+    pub fn project(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<bool, RenderError> {
         let turn = fc.gpu_scene.world_from_environment();
         if self.projected && self.rotated_by == Some(turn) {
-            return Ok(());
+            return Ok(false);
         }
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         let count = self.order * self.order;
@@ -185,7 +186,7 @@ impl EnvironmentProjection {
         })?;
         self.rotated_by = Some(turn);
         self.rotations += 1;
-        Ok(())
+        Ok(true)
     }
 
     /// The environment changed: project it again before the next frame.

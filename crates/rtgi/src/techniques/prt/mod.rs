@@ -1,18 +1,21 @@
-//! `prt`: precomputed radiance transfer for diffuse surfaces (Sloan, Kautz & Snyder 2002; seed 001).
-//! Once per geometry, every vertex gets a transfer vector: the SH projection of its clamped cosine
+//! `prt`: precomputed radiance transfer (Sloan, Kautz & Snyder 2002; seed 001). Once per geometry,
+//! every vertex gets a transfer vector: the SH projection of its clamped cosine
 //! (`transfer=unshadowed`), of its clamped cosine times its visibility of the environment
 //! (`transfer=shadowed`, rays through the shared BVH), or that plus `bounces` bounces of the
 //! environment's light between the surfaces (`transfer=interreflected`, RGB), order² coefficients
-//! per channel (transfer.wgsl). Once per
-//! environment, the environment is projected into SH on the GPU (the shared `env_projection`). Per
-//! frame, every pixel's irradiance from the environment is the dot product of the two, its vertices'
-//! transfer interpolated at the pixel (shade.wgsl); lights and emitters come from the direct pass as
-//! in `direct`.
+//! per channel (transfer.wgsl); or a glossy transfer matrix (`transfer=glossy`), the SH operator
+//! that turns the environment's radiance into the vertex's self-shadowed incident radiance
+//! (glossy.wgsl). The environment is projected into SH on the GPU and turned with it (the shared
+//! `env_projection`). Per frame, diffuse transfer gives every pixel's irradiance as the dot product
+//! of its vertices' interpolated transfer with the environment's SH (shade_diffuse.wgsl); glossy
+//! transfer multiplies every vertex's matrix with the environment's SH when either changes, then
+//! integrates the interpolated result against the whole BRDF in the view direction through the SH
+//! BRDF tables (shade_glossy.wgsl). Lights and emitters come from the direct pass as in `direct`.
 //!
 //! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
-//! corners, so shadows need tessellated meshes (as in the paper). Not built yet (issue 14): glossy
-//! transfer matrices, Haar wavelets, per-texel transfer, environment
-//! rotation and the on-disk cache of transfer vectors.
+//! corners, so shadows need tessellated meshes (as in the paper). Not built yet (issue 14): Haar
+//! wavelets, per-texel transfer, interreflected glossy transfer and rigid self-transfer of moving
+//! meshes.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
@@ -20,6 +23,7 @@ use crate::gpu::{BufferBuilder, GpuContext, Profiler};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
 
+use super::brdf_tables::{BrdfTableShape, BrdfTables, LOOKUP_WGSL, SHADING_WGSL, rotation_x90_blocks};
 use super::compute::{self, DispatchSlots, storage_texture_entry};
 use super::direct::{DIRECT_PARAMS, DirectLighting};
 use super::env_projection::{EnvironmentProjection, PROJECTION_BANDS_PARAM};
@@ -29,7 +33,12 @@ use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, Tec
 mod tests;
 
 /// What the transfer vectors hold.
-pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected"];
+pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected", "glossy"];
+
+/// The highest order of glossy transfer: a batch's harmonics (`GLOSSY_BATCH` × order² floats of
+/// glossy.wgsl) must fit the 16 KiB of workgroup memory every device has, and a matrix has
+/// order²(order² + 1)/2 floats per vertex (666 at order 6).
+const MAX_GLOSSY_ORDER: u32 = 6;
 
 /// The SH orders transfer may have: the shared harmonics (common/hsh.wgsl) go to 10.
 const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
@@ -50,7 +59,10 @@ pub const PARAMS: [ParamSpec; 13] = [
         default: "shadowed",
         doc: "shadowed: clamped cosine × the vertex's visibility of the environment (rays through the \
               BVH); unshadowed: the clamped cosine alone; interreflected: shadowed plus `bounces` \
-              bounces of the environment's light between the surfaces (RGB: 3 × order² per vertex)",
+              bounces of the environment's light between the surfaces (RGB: 3 × order² per vertex); \
+              glossy: a matrix per vertex from the environment's SH to the vertex's shadowed incident \
+              radiance, shaded with the whole BRDF (diffuse and specular lobes; order ≤ 6, \
+              order²(order² + 1)/2 floats per vertex)",
     },
     ParamSpec {
         name: "bounces",
@@ -68,7 +80,7 @@ pub const PARAMS: [ParamSpec; 13] = [
         name: "transfer_samples",
         kind: ParamKind::Int { min: 1, max: 65536 },
         default: "256",
-        doc: "cosine-distributed directions per vertex of the precomputation",
+        doc: "directions per vertex of the precomputation (cosine-distributed; uniform for glossy)",
     },
     PROJECTION_BANDS_PARAM,
     ParamSpec {
@@ -82,20 +94,42 @@ pub const PARAMS: [ParamSpec; 13] = [
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "prt",
-    description: "precomputed radiance transfer: per-vertex SH transfer (unshadowed or shadowed) dotted \
-                  with the environment's SH (Sloan, Kautz & Snyder 2002)",
+    description: "precomputed radiance transfer: per-vertex SH transfer vectors (unshadowed, shadowed, \
+                  interreflected) or glossy transfer matrices applied to the environment's SH (Sloan, \
+                  Kautz & Snyder 2002)",
     params: &PARAMS,
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
     motion: super::Motion::Restarts,
-    validate: super::independent_params,
+    validate,
     create,
 };
+
+fn validate(p: &ParamValues) -> Result<(), String> {
+    if p.choice("transfer") == "glossy" && p.int("order") > i64::from(MAX_GLOSSY_ORDER) {
+        return Err(format!(
+            "transfer=glossy takes order ≤ {MAX_GLOSSY_ORDER} (order {} asked): a vertex's matrix has \
+             order²(order² + 1)/2 floats and the precomputation keeps 64 directions' order² harmonics in \
+             workgroup memory",
+            p.int("order")
+        ));
+    }
+    Ok(())
+}
+
+/// The BRDF tables glossy transfer shades with: env-harmonics' defaults (the thesis's 32² paraboloid
+/// map; 9 roughnesses, interpolated linearly between; 512 samples per texel).
+fn glossy_table_shape(order: u32) -> BrdfTableShape {
+    BrdfTableShape { hsh: false, order, size: 32, roughness_levels: 9, samples: 512 }
+}
 
 /// Invocations per workgroup of the transfer pass.
 const WORKGROUP: u32 = 64;
 /// Directions one transfer dispatch adds per vertex (`BATCH` of transfer.wgsl).
 const BATCH: u32 = 32;
+/// Directions one glossy transfer dispatch adds per vertex (`GLOSSY_BATCH` of glossy.wgsl: one per
+/// invocation of a workgroup).
+const GLOSSY_BATCH: u32 = 64;
 
 /// Mirrors `Batch` of transfer.wgsl.
 #[repr(C)]
@@ -105,21 +139,40 @@ struct Batch {
     order: u32,
 }
 
-/// The transfer vectors and the passes that compute them.
+/// The passes that compute a geometry's transfer.
+enum TransferPasses {
+    /// Transfer vectors (transfer.wgsl).
+    Vectors {
+        accumulate: wgpu::ComputePipeline,
+        interreflect: wgpu::ComputePipeline,
+        add_bounce: wgpu::ComputePipeline,
+        /// The passes' resources with bounce buffer 0 as the previous bounce and 1 as this one, and
+        /// the other way round.
+        groups: [wgpu::BindGroup; 2],
+        /// Interreflection's bounce increments (4 bytes each without interreflection).
+        bounce_buffers: [wgpu::Buffer; 2],
+    },
+    /// Glossy transfer matrices (glossy.wgsl) and the transferred radiance they make of the
+    /// environment's SH.
+    Matrices {
+        accumulate: wgpu::ComputePipeline,
+        lighting: wgpu::ComputePipeline,
+        group: wgpu::BindGroup,
+        /// Order² vec4f per vertex.
+        transferred: wgpu::Buffer,
+    },
+}
+
+/// A geometry's transfer and the passes that compute it.
 struct Transfer {
     buffer: wgpu::Buffer,
-    accumulate: wgpu::ComputePipeline,
-    interreflect: wgpu::ComputePipeline,
-    add_bounce: wgpu::ComputePipeline,
-    /// The passes' resources with bounce buffer 0 as the previous bounce and 1 as this one, and the
-    /// other way round.
-    groups: [wgpu::BindGroup; 2],
-    /// Interreflection's bounce increments (4 bytes each without interreflection).
-    bounce_buffers: [wgpu::Buffer; 2],
+    passes: TransferPasses,
     batches: DispatchSlots,
     vertices: u32,
-    /// Floats per vertex: order² coefficients × colour channels.
+    /// Floats per vertex: order² coefficients × colour channels, or a matrix's upper triangle.
     floats_per_vertex: u32,
+    /// Coefficients per colour channel of the environment's SH.
+    coefficients: u32,
     bounces: u32,
     /// The geometry the vectors were computed for; `None` before the first frame.
     computed_for: Option<u64>,
@@ -144,7 +197,7 @@ struct TransferCache {
 /// The cache key of the transfer: the crate version, this file (how the passes are dispatched), the
 /// transfer shader as composed with its defines and imports, the settings, and every vertex, index,
 /// material and texture of the scene the GPU scene was uploaded from (interreflection reads albedos).
-fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: [u32; 4]) -> u64 {
+fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: [u32; 5]) -> u64 {
     let mut h = crate::cache::StableHasher::default();
     h.str(env!("CARGO_PKG_VERSION")).str(include_str!("mod.rs")).str(composed_shader);
     for v in settings {
@@ -179,6 +232,10 @@ struct Prt {
     direct: DirectLighting,
     projection: EnvironmentProjection,
     transfer: Transfer,
+    /// Glossy transfer's BRDF tables (built on the first frame).
+    tables: Option<BrdfTables>,
+    /// The transferred radiance is that of the current matrices and environment (glossy transfer).
+    lit: bool,
     shade: wgpu::ComputePipeline,
     shade_group: wgpu::BindGroup,
     samples: u32,
@@ -199,9 +256,12 @@ impl Prt {
         let order = p.int("order") as u32;
         let samples = p.int("transfer_samples") as u32;
         let count = order * order;
-        let interreflected = p.choice("transfer") == "interreflected";
+        let kind = p.choice("transfer");
+        let glossy = kind == "glossy";
+        let interreflected = kind == "interreflected";
         let channels: u32 = if interreflected { 3 } else { 1 };
         let bounces = if interreflected { p.int("bounces") as u32 } else { 0 };
+        let floats_per_vertex = if glossy { count * (count + 1) / 2 } else { count * channels };
         let vertices = u32::try_from(setup.scene.vertex_count())
             .map_err(|_| RenderError::InvalidSettings("prt: the scene has more than 2³² vertices".into()))?;
 
@@ -209,28 +269,28 @@ impl Prt {
         let (direct, direct_target) = DirectLighting::without_environment(setup, "prt")?;
         let projection = EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32)?;
 
-        let bytes = u64::from(vertices.max(1)) * u64::from(count * channels) * 4;
+        let bytes = u64::from(vertices.max(1)) * u64::from(floats_per_vertex) * 4;
         let too_large = |e| {
             RenderError::InvalidSettings(format!(
-                "prt: {e}; lower order ({channels} × order² coefficients per vertex)"
+                "prt: {e}; lower order ({floats_per_vertex} floats of transfer per vertex)"
             ))
         };
         let storage =
             |label, bytes| BufferBuilder::new(label, bytes).storage().copy().build(ctx).map_err(too_large);
-        let buffer = storage("prt transfer vectors", bytes)?;
-        let bounce_bytes = if interreflected { bytes } else { 4 };
-        let bounce_buffers = [storage("prt bounce a", bounce_bytes)?, storage("prt bounce b", bounce_bytes)?];
+        let buffer = storage("prt transfer", bytes)?;
         let defines = setup
             .gpu_scene
             .bvh_defines(Defines::new())
             .u32("VERTEX_COUNT", vertices)
             .u32("TRANSFER_SAMPLES", samples)
             .u32("CHANNELS", channels)
-            .bool("SHADOWED", p.choice("transfer") != "unshadowed");
+            .u32("COEFFICIENTS", count)
+            .bool("SHADOWED", kind != "unshadowed");
         let layouts = |own| [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, own];
 
+        let batch = if glossy { GLOSSY_BATCH } else { BATCH };
         let batch_values: Vec<Batch> =
-            (0..samples.div_ceil(BATCH)).map(|i| Batch { first_sample: i * BATCH, order }).collect();
+            (0..samples.div_ceil(batch)).map(|i| Batch { first_sample: i * batch, order }).collect();
         let batches = DispatchSlots::new(ctx, "prt transfer batches", &batch_values);
         let transfer_layout = compute::layout(
             ctx,
@@ -242,7 +302,7 @@ impl Prt {
                 compute::storage_buffer_entry(3, false),
             ],
         );
-        let transfer_group = |previous: &wgpu::Buffer, this: &wgpu::Buffer| {
+        let transfer_group = |a: &wgpu::Buffer, b: &wgpu::Buffer| {
             compute::bind_group(
                 ctx,
                 "prt transfer",
@@ -250,30 +310,52 @@ impl Prt {
                 &[
                     buffer.as_entire_binding(),
                     batches.resource(),
-                    previous.as_entire_binding(),
-                    this.as_entire_binding(),
+                    a.as_entire_binding(),
+                    b.as_entire_binding(),
                 ],
             )
         };
-        let groups = [
-            transfer_group(&bounce_buffers[0], &bounce_buffers[1]),
-            transfer_group(&bounce_buffers[1], &bounce_buffers[0]),
-        ];
+        let transfer_source = transfer_wgsl(glossy);
         let transfer_pipeline = |entry: &str| {
             compute::pipeline(
                 ctx,
                 "prt transfer",
-                include_str!("transfer.wgsl"),
+                &transfer_source,
                 defines.clone(),
                 entry,
                 &layouts(&transfer_layout),
             )
         };
+        let passes = if glossy {
+            let transferred =
+                storage("prt transferred radiance", u64::from(vertices.max(1)) * u64::from(count) * 16)?;
+            TransferPasses::Matrices {
+                accumulate: transfer_pipeline("accumulate_matrix")?,
+                lighting: transfer_pipeline("transfer_lighting")?,
+                group: transfer_group(&projection.coefficients, &transferred),
+                transferred,
+            }
+        } else {
+            let bounce_bytes = if interreflected { bytes } else { 4 };
+            let bounce_buffers =
+                [storage("prt bounce a", bounce_bytes)?, storage("prt bounce b", bounce_bytes)?];
+            TransferPasses::Vectors {
+                accumulate: transfer_pipeline("accumulate")?,
+                interreflect: transfer_pipeline("interreflect")?,
+                add_bounce: transfer_pipeline("add_bounce")?,
+                groups: [
+                    transfer_group(&bounce_buffers[0], &bounce_buffers[1]),
+                    transfer_group(&bounce_buffers[1], &bounce_buffers[0]),
+                ],
+                bounce_buffers,
+            }
+        };
         let cache = (p.choice("transfer_cache") == "on").then(|| -> Result<TransferCache, RenderError> {
-            let composed = crate::shaders::compose("prt transfer", include_str!("transfer.wgsl"), &defines)?;
+            let composed = crate::shaders::compose("prt transfer", &transfer_source, &defines)?;
+            let kind_index = TRANSFERS.iter().position(|t| *t == kind).unwrap_or(0) as u32;
             Ok(TransferCache {
                 disk: crate::cache::DiskCache::new(crate::cache::precomputed_dir(), "prt-transfer"),
-                key: transfer_key(setup.scene, &composed, [order, samples, channels, bounces]),
+                key: transfer_key(setup.scene, &composed, [order, samples, channels, bounces, kind_index]),
                 geometry: setup.gpu_scene.geometry_version,
                 store_pending: false,
                 loads: 0,
@@ -282,44 +364,58 @@ impl Prt {
             })
         });
         let cache = cache.transpose()?;
-        let accumulate = transfer_pipeline("accumulate")?;
-        let interreflect = transfer_pipeline("interreflect")?;
-        let add_bounce = transfer_pipeline("add_bounce")?;
 
         let shape = BufferBuilder::with_contents("prt shape", bytemuck::cast_slice(&[order, 0, 0, 0]))
             .usage(wgpu::BufferUsages::UNIFORM)
             .build(ctx)?;
+        let tables = glossy.then(|| BrdfTables::new(setup, glossy_table_shape(order), "prt")).transpose()?;
+        let rotation = glossy
+            .then(|| {
+                BufferBuilder::with_contents(
+                    "prt rotation x90",
+                    bytemuck::cast_slice(&rotation_x90_blocks(order as usize)),
+                )
+                .usage(wgpu::BufferUsages::STORAGE)
+                .build(ctx)
+            })
+            .transpose()?;
         let read_only = |b: u32| compute::storage_buffer_entry(b, true);
-        let shade_layout = compute::layout(
-            ctx,
-            "prt shade",
-            &[
-                compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
-                storage_texture_entry(1, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
-                read_only(2),
-                read_only(3),
-                compute::uniform_entry(4),
-            ],
-        );
+        let mut shade_entries = vec![
+            compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
+            storage_texture_entry(1, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
+            read_only(2),
+            read_only(3),
+            compute::uniform_entry(4),
+        ];
+        if glossy {
+            shade_entries.extend([read_only(5), read_only(6)]);
+        }
+        let shade_layout = compute::layout(ctx, "prt shade", &shade_entries);
         let (direct_view, output_view) =
             (direct_target.create_view(&Default::default()), setup.output.create_view(&Default::default()));
-        let shade_group = compute::bind_group(
-            ctx,
-            "prt shade",
-            &shade_layout,
-            &[
-                wgpu::BindingResource::TextureView(&direct_view),
-                wgpu::BindingResource::TextureView(&output_view),
-                projection.coefficients.as_entire_binding(),
-                buffer.as_entire_binding(),
-                shape.as_entire_binding(),
-            ],
-        );
+        let mut shade_resources = vec![
+            wgpu::BindingResource::TextureView(&direct_view),
+            wgpu::BindingResource::TextureView(&output_view),
+            projection.coefficients.as_entire_binding(),
+            match &passes {
+                TransferPasses::Matrices { transferred, .. } => transferred.as_entire_binding(),
+                TransferPasses::Vectors { .. } => buffer.as_entire_binding(),
+            },
+            shape.as_entire_binding(),
+        ];
+        if let (Some(rotation), Some(tables)) = (&rotation, &tables) {
+            shade_resources.extend([rotation.as_entire_binding(), tables.buffer.as_entire_binding()]);
+        }
+        let shade_group = compute::bind_group(ctx, "prt shade", &shade_layout, &shade_resources);
+        let shade_defines = match &tables {
+            Some(t) => t.shape.defines(defines),
+            None => defines,
+        };
         let shade = compute::pipeline(
             ctx,
             "prt shade",
-            include_str!("shade.wgsl"),
-            defines,
+            &shade_wgsl(glossy),
+            shade_defines,
             "main",
             &layouts(&shade_layout),
         )?;
@@ -329,18 +425,17 @@ impl Prt {
             projection,
             transfer: Transfer {
                 buffer,
-                accumulate,
-                interreflect,
-                add_bounce,
-                groups,
-                bounce_buffers,
+                passes,
                 batches,
                 vertices,
-                floats_per_vertex: count * channels,
+                floats_per_vertex,
+                coefficients: count,
                 bounces,
                 computed_for: None,
                 cache,
             },
+            tables,
+            lit: false,
             shade,
             shade_group,
             samples,
@@ -363,73 +458,133 @@ impl Prt {
         Ok(())
     }
 
-    /// Computes the transfer vectors unless they belong to the current geometry, or loads them from
-    /// the disk cache for the geometry the technique was created for.
-    fn precompute(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+    /// Computes the transfer unless it belongs to the current geometry, or loads it from the disk
+    /// cache for the geometry the technique was created for; true when the transfer is new.
+    fn precompute(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<bool, RenderError> {
         let geometry = fc.gpu_scene.geometry_version;
         let t = &mut self.transfer;
         if t.computed_for == Some(geometry) {
-            return Ok(());
+            return Ok(false);
         }
+        t.computed_for = Some(geometry);
         if let Some(cache) = t.cache.as_mut().filter(|c| c.geometry == geometry) {
             if let Some(bytes) = cache.disk.load(cache.key, t.buffer.size() as usize) {
                 fc.ctx.queue.write_buffer(&t.buffer, 0, &bytes);
                 cache.loads += 1;
-                t.computed_for = Some(geometry);
-                return Ok(());
+                return Ok(true);
             }
             cache.store_pending = true;
         }
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
-        let [x, y, _] = workgroups_for(t.vertices, WORKGROUP, self.max_workgroups);
-        let [fx, fy, _] = workgroups_for(t.vertices * t.floats_per_vertex, WORKGROUP, self.max_workgroups);
-        // A bounce's directions, batch by batch.
-        let directions = |encoder: &mut wgpu::CommandEncoder, pipeline, group: &wgpu::BindGroup| {
-            let mut pass =
-                crate::gpu::dispatch::compute_pass(encoder, "transfer precomputation", pipeline, &groups);
-            for offset in t.batches.offsets() {
-                pass.set_bind_group(2, group, &[offset]);
-                pass.dispatch_workgroups(x, y, 1);
-            }
-        };
+        let max = self.max_workgroups;
+        let [x, y, _] = workgroups_for(t.vertices, WORKGROUP, max);
+        let [fx, fy, _] = workgroups_for(t.vertices * t.floats_per_vertex, WORKGROUP, max);
+        let batches = &t.batches;
+        // A bounce's (or the matrices') directions, batch by batch, over `[x, y]` workgroups.
+        let directions =
+            |encoder: &mut wgpu::CommandEncoder, pipeline, group: &wgpu::BindGroup, [x, y]: [u32; 2]| {
+                let mut pass =
+                    crate::gpu::dispatch::compute_pass(encoder, "transfer precomputation", pipeline, &groups);
+                for offset in batches.offsets() {
+                    pass.set_bind_group(2, group, &[offset]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+            };
         profiler.pass(fc.ctx, "transfer precomputation", |encoder| {
             encoder.clear_buffer(&t.buffer, 0, None);
-            directions(encoder, &t.accumulate, &t.groups[0]);
-            if t.bounces > 0 {
-                // Bounce 0 (shadowed transfer, the same in every channel) is the first bounce's source.
-                encoder.copy_buffer_to_buffer(&t.buffer, 0, &t.bounce_buffers[0], 0, t.buffer.size());
-            }
-            for b in 0..t.bounces as usize {
-                // Bounce b + 1 reads bounce buffer b % 2 and writes the other, then joins the sum.
-                encoder.clear_buffer(&t.bounce_buffers[(b + 1) % 2], 0, None);
-                directions(encoder, &t.interreflect, &t.groups[b % 2]);
-                let mut pass = crate::gpu::dispatch::compute_pass(
-                    encoder,
-                    "transfer precomputation",
-                    &t.add_bounce,
-                    &groups,
-                );
-                pass.set_bind_group(2, &t.groups[b % 2], &[0]);
-                pass.dispatch_workgroups(fx, fy, 1);
+            match &t.passes {
+                TransferPasses::Matrices { accumulate, group, .. } => {
+                    // A workgroup per vertex.
+                    let [gx, gy, _] = workgroups_for(t.vertices * GLOSSY_BATCH, GLOSSY_BATCH, max);
+                    directions(encoder, accumulate, group, [gx, gy]);
+                }
+                TransferPasses::Vectors {
+                    accumulate,
+                    interreflect,
+                    add_bounce,
+                    groups: sets,
+                    bounce_buffers,
+                } => {
+                    directions(encoder, accumulate, &sets[0], [x, y]);
+                    if t.bounces > 0 {
+                        // Bounce 0 (shadowed transfer, the same in every channel) is the first bounce's
+                        // source.
+                        encoder.copy_buffer_to_buffer(&t.buffer, 0, &bounce_buffers[0], 0, t.buffer.size());
+                    }
+                    for b in 0..t.bounces as usize {
+                        // Bounce b + 1 reads bounce buffer b % 2 and writes the other, then joins the sum.
+                        encoder.clear_buffer(&bounce_buffers[(b + 1) % 2], 0, None);
+                        directions(encoder, interreflect, &sets[b % 2], [x, y]);
+                        let mut pass = crate::gpu::dispatch::compute_pass(
+                            encoder,
+                            "transfer precomputation",
+                            add_bounce,
+                            &groups,
+                        );
+                        pass.set_bind_group(2, &sets[b % 2], &[0]);
+                        pass.dispatch_workgroups(fx, fy, 1);
+                    }
+                }
             }
         })?;
-        t.computed_for = Some(geometry);
+        Ok(true)
+    }
+
+    /// Glossy transfer: every vertex's transferred radiance, its matrix times the environment's SH,
+    /// unless it is current.
+    fn light_vertices(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        let t = &self.transfer;
+        let TransferPasses::Matrices { lighting, group, .. } = &t.passes else { return Ok(()) };
+        if self.lit {
+            return Ok(());
+        }
+        let [x, y, _] = workgroups_for(t.vertices * t.coefficients, WORKGROUP, self.max_workgroups);
+        let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
+        profiler.pass(fc.ctx, "transferred radiance", |encoder| {
+            let mut pass =
+                crate::gpu::dispatch::compute_pass(encoder, "transferred radiance", lighting, &groups);
+            // The first batch's slot: the pass reads only its order.
+            pass.set_bind_group(2, group, &[0]);
+            pass.dispatch_workgroups(x, y, 1);
+        })?;
+        self.lit = true;
         Ok(())
+    }
+}
+
+/// The transfer passes' shader: the direction lattice, then the vectors' or the matrices' passes.
+fn transfer_wgsl(glossy: bool) -> String {
+    let passes = if glossy { include_str!("glossy.wgsl") } else { include_str!("transfer.wgsl") };
+    format!("{}\n{passes}", include_str!("lattice.wgsl"))
+}
+
+/// The shading pass's shader: the pixel's triangle and point, then diffuse or glossy environment light.
+fn shade_wgsl(glossy: bool) -> String {
+    let shade = include_str!("shade.wgsl");
+    if glossy {
+        format!("{shade}\n{LOOKUP_WGSL}\n{SHADING_WGSL}\n{}", include_str!("shade_glossy.wgsl"))
+    } else {
+        format!("{shade}\n{}", include_str!("shade_diffuse.wgsl"))
     }
 }
 
 impl Technique for Prt {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         self.store_transfer(fc.ctx)?;
-        self.precompute(fc, profiler)?;
-        self.projection.project(fc, profiler)?;
+        let new_transfer = self.precompute(fc, profiler)?;
+        let new_environment = self.projection.project(fc, profiler)?;
+        self.lit &= !new_transfer && !new_environment;
+        if let Some(tables) = self.tables.as_mut() {
+            tables.build_once(fc, profiler)?;
+        }
+        self.light_vertices(fc, profiler)?;
         self.direct.render(fc, profiler)?;
         compute::frame_pass(fc, profiler, "prt shading", &self.shade, &self.shade_group)
     }
 
     // Lights and emitters are the direct pass's, read every frame; a new environment is projected
     // again (a turned one only rotated, by the projection itself) and new geometry gets new transfer
-    // vectors before the next frame.
+    // before the next frame; glossy transfer lights its vertices again after either.
     fn scene_changed(
         &mut self,
         _: &GpuContext,
@@ -466,16 +621,28 @@ impl Technique for Prt {
             // The direct pass's target and the output, both f32 RGBA.
             ("output_bytes_per_pixel".to_string(), 32.0),
         ]);
+        if let TransferPasses::Matrices { transferred, .. } = &self.transfer.passes {
+            counters.insert("transferred_radiance_bytes".to_string(), transferred.size() as f64);
+        }
+        if let Some(tables) = &self.tables {
+            counters.insert("brdf_table_bytes".to_string(), tables.shape.bytes() as f64);
+        }
         counters.extend(self.projection.counters());
         Ok(counters)
     }
 
     fn warnings(&self) -> Vec<String> {
-        let mut warnings = vec![
-            "prt: diffuse transfer only (specular lobes get no environment light; glossy transfer is not built); \
-             back faces get no environment light"
-                .into(),
-        ];
+        let mut warnings = vec![if self.tables.is_some() {
+            format!(
+                "prt: glossy transfer carries the environment's light in {} SH bands, too few for sharp \
+                 reflections (low roughness is blurred); back faces get no environment light",
+                self.projection.coefficient_count().isqrt()
+            )
+        } else {
+            "prt: diffuse transfer (specular lobes get no environment light; transfer=glossy gives them \
+             some); back faces get no environment light"
+                .into()
+        }];
         if let Some(e) = self.transfer.cache.as_ref().and_then(|c| c.error.as_ref()) {
             warnings.push(format!("prt: the transfer was not cached ({e})"));
         }

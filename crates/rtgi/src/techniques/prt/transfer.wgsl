@@ -2,9 +2,8 @@
 // T_k = ∫ V(ω) max(0, n·ω) Y_k(ω) dω, so that a vertex lit by an environment with SH coefficients L_k
 // receives the irradiance Σ_k L_k T_k (shadowed: V is the vertex's visibility of the environment;
 // unshadowed: V = 1, the clamped cosine alone). The integral is estimated with TRANSFER_SAMPLES
-// cosine-distributed directions about the vertex normal, a Fibonacci lattice in the unit square moved
-// by a per-vertex Cranley–Patterson offset: T_k ≈ (π / N) Σ_s V(ω_s) Y_k(ω_s). Each dispatch adds
-// BATCH of the samples (long loops in one invocation are unsafe on lavapipe); an invocation traces
+// cosine-distributed directions about the vertex normal (lattice.wgsl):
+// T_k ≈ (π / N) Σ_s V(ω_s) Y_k(ω_s). Each dispatch adds BATCH of the samples (long loops in one invocation are unsafe on lavapipe); an invocation traces
 // its vertex's BATCH rays, keeps their visibility as bits, then adds one coefficient at a time.
 //
 // Interreflected transfer (Sloan et al. §5) adds bounces: bounce b's transfer at v gathers bounce
@@ -16,8 +15,6 @@
 
 #import common/scene.wgsl
 #import common/hsh.wgsl
-#import common/sampling.wgsl
-#import common/random.wgsl
 
 struct Batch {
     first_sample: u32,
@@ -32,13 +29,9 @@ struct Batch {
 @group(2) @binding(3) var<storage, read_write> this_bounce: array<f32>;
 
 const BATCH: u32 = 32u;
-const GOLDEN_FRACTION: f32 = 0.6180339887;
-
-// Sample s of the vertex's directions (world space).
+// Sample s of the vertex's cosine-distributed directions (world space).
 fn transfer_direction(vertex: u32, s: u32, n: vec3f) -> vec3f {
-    let lattice = vec2f((f32(s) + 0.5) / f32(TRANSFER_SAMPLES), fract(f32(s) * GOLDEN_FRACTION));
-    let offset = vec2f(u32_to_unit(hash2(vertex, 0x70727431u)), u32_to_unit(hash2(vertex, 0x70727432u)));
-    return local_to_world(sample_cosine_hemisphere(cp_rotate(lattice, offset)), n);
+    return local_to_world(sample_cosine_hemisphere(transfer_lattice(vertex, s)), n);
 }
 
 // Invocation per vertex, over the (x, y) spread of gpu::dispatch::workgroups_for.
