@@ -18,6 +18,7 @@ import measure_common as m  # noqa: E402
 SCRIPT = "measure-prt-turning.py"
 SHADING = {"prt": "prt shading", "env-harmonics": "environment shading"}
 ROTATION = "environment rotation"
+RELIGHT = "transferred radiance"
 
 
 def main():
@@ -34,18 +35,22 @@ def main():
         "frames, each at a new time, so the sky has turned and the projection is rotated every frame; "
         f"the first is compared with the path-traced full-GI reference at its time (spp: {ref_spp}). "
         "ms/frame: the whole frame's GPU time; rotation: the `environment rotation` pass (the SH band "
-        "matrices are built on the CPU and are not in it); × direct: ms/frame over direct's"
+        "matrices are built on the CPU and are not in it); relight: glossy transfer's `transferred radiance` "
+        "pass (every vertex's matrix times the turned sky's SH, again every frame); × direct: ms/frame "
+        "over direct's"
         + (". On lavapipe: compare cells with each other, not with GPU figures." if cpu else "."), "",
-        "| cell | ms/frame | × direct | shading ms | rotation ms | FLIP | relMSE |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "| cell | ms/frame | × direct | shading ms | rotation ms | relight ms | FLIP | relMSE |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for c in cells:
         shading = m.pass_ms(c, SHADING.get(c["technique"], ""))
         rotation = m.pass_ms(c, ROTATION)
+        relight = m.pass_ms(c, RELIGHT)
         ratio = c["frame_ms"] / direct[0] if direct else None
         lines.append(f"| {m.label(c)} | {c['frame_ms']:.2f} | {f'{ratio:.2f}' if ratio is not None else '–'} | "
                      f"{f'{shading:.2f}' if shading is not None else '–'} | "
-                     f"{f'{rotation:.3f}' if rotation is not None else '–'} | {c['error']['flip']:.4f} | "
+                     f"{f'{rotation:.3f}' if rotation is not None else '–'} | "
+                     f"{f'{relight:.2f}' if relight is not None else '–'} | {c['error']['flip']:.4f} | "
                      f"{c['error']['rel_mse']:.5f} |")
     m.write_doc(SCRIPT, run.args.doc, lines)
 
