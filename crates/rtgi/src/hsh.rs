@@ -210,6 +210,12 @@ impl ShRotationN {
         &self.bands[l]
     }
 
+    /// Every band's matrix, band after band, in f32: the layout the GPU passes read (band l's block at
+    /// l(4l² − 1)/3).
+    pub fn bands_f32(&self) -> Vec<f32> {
+        self.bands.iter().flatten().map(|&x| x as f32).collect()
+    }
+
     pub fn apply(&self, c: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; count(self.order)];
         for (l, m) in self.bands.iter().enumerate() {

@@ -221,6 +221,13 @@ pub struct EnvironmentMap {
 }
 
 impl EnvironmentMap {
+    /// The unit direction at equirectangular coordinates (u, v) ∈ [0, 1]²: +Y up, u = 0 at −Z growing
+    /// towards +X, v = 0 at the zenith (common/math.wgsl equirect_direction).
+    pub fn direction(u: f32, v: f32) -> Vec3 {
+        let (phi, theta) = (u * std::f32::consts::TAU, v * std::f32::consts::PI);
+        Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos())
+    }
+
     /// Reads an equirectangular radiance map (.hdr or .exr, linear) scaled by `intensity`.
     pub fn load(path: &std::path::Path, intensity: f32) -> Result<EnvironmentMap, crate::SceneError> {
         if !intensity.is_finite() || intensity < 0.0 {

@@ -89,7 +89,7 @@ pub fn patch_sky() -> Environment {
             for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
                 let u = (column as f32 + (i as f32 + 0.5) / n as f32) / w as f32;
                 let v = (row as f32 + (j as f32 + 0.5) / n as f32) / h as f32;
-                sum += radiance(equirect_direction(u, v));
+                sum += radiance(EnvironmentMap::direction(u, v));
             }
             rgb.extend_from_slice(&(sum / (n * n) as f32).to_array());
         }
@@ -101,13 +101,6 @@ pub fn patch_sky() -> Environment {
         rgb,
         intensity: 1.0,
     })
-}
-
-/// The unit direction of equirectangular coordinates (u, v), as `EnvironmentMap` lays them out
-/// (common/math.wgsl equirect_direction).
-fn equirect_direction(u: f32, v: f32) -> Vec3 {
-    let (phi, theta) = (u * TAU, v * std::f32::consts::PI);
-    Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos())
 }
 
 /// The (2, 3) torus knot (a trefoil) about +Y through `centre`: the core circle's radius `radius`,

@@ -837,8 +837,9 @@ fn pillars_patch_sky_has_the_glow_s_irradiance_in_a_small_disc() {
         let theta = (row as f64 + 0.5) / h as f64 * std::f64::consts::PI;
         let solid_angle = std::f64::consts::TAU / w as f64 * std::f64::consts::PI / h as f64 * theta.sin();
         for column in 0..w {
-            let phi = (column as f64 + 0.5) / w as f64 * std::f64::consts::TAU;
-            let d = glam::DVec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos());
+            let u = (column as f32 + 0.5) / w as f32;
+            let d =
+                crate::scene::EnvironmentMap::direction(u, ((row as f64 + 0.5) / h as f64) as f32).as_dvec3();
             let cos = d.dot(sun_direction.as_dvec3()).max(0.0);
             let radiance = f64::from(map.rgb[(row * w + column) * 3]);
             facing += radiance * cos * solid_angle;

@@ -145,8 +145,7 @@ impl BrdfTables {
 /// The order-`order` SH matrices of Rx(90°), band by band (block l at l(4l² − 1)/3), as shade.wgsl
 /// reads them.
 pub fn rotation_x90_blocks(order: usize) -> Vec<f32> {
-    let r = crate::hsh::sh_rotation(order, glam::DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2));
-    (0..order).flat_map(|l| r.band(l).iter().map(|&x| x as f32).collect::<Vec<_>>()).collect()
+    crate::hsh::sh_rotation(order, glam::DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2)).bands_f32()
 }
 
 /// The SH coefficients of f seen from the frame of the unit normal `n`: g(d) = f(R d) with

@@ -172,9 +172,7 @@ impl EnvironmentProjection {
         }
         if self.rotated_by != Some(turn) {
             let start = std::time::Instant::now();
-            let rotation = crate::hsh::sh_rotation(self.order as usize, turn.as_dmat3());
-            let floats: Vec<f32> =
-                (0..self.order as usize).flat_map(|l| rotation.band(l).iter().map(|&v| v as f32)).collect();
+            let floats = crate::hsh::sh_rotation(self.order as usize, turn.as_dmat3()).bands_f32();
             self.rotation_matrix_ms += start.elapsed().as_secs_f64() * 1e3;
             fc.ctx.queue.write_buffer(&self.rotation_matrices, 0, bytemuck::cast_slice(&floats));
         }

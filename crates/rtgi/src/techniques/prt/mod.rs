@@ -197,7 +197,7 @@ struct TransferCache {
 /// The cache key of the transfer: the crate version, this file (how the passes are dispatched), the
 /// transfer shader as composed with its defines and imports, the settings, and every vertex, index,
 /// material and texture of the scene the GPU scene was uploaded from (interreflection reads albedos).
-fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: [u32; 5]) -> u64 {
+fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: [u32; 4]) -> u64 {
     let mut h = crate::cache::StableHasher::default();
     h.str(env!("CARGO_PKG_VERSION")).str(include_str!("mod.rs")).str(composed_shader);
     for v in settings {
@@ -352,10 +352,9 @@ impl Prt {
         };
         let cache = (p.choice("transfer_cache") == "on").then(|| -> Result<TransferCache, RenderError> {
             let composed = crate::shaders::compose("prt transfer", &transfer_source, &defines)?;
-            let kind_index = TRANSFERS.iter().position(|t| *t == kind).unwrap_or(0) as u32;
             Ok(TransferCache {
                 disk: crate::cache::DiskCache::new(crate::cache::precomputed_dir(), "prt-transfer"),
-                key: transfer_key(setup.scene, &composed, [order, samples, channels, bounces, kind_index]),
+                key: transfer_key(setup.scene, &composed, [order, samples, channels, bounces]),
                 geometry: setup.gpu_scene.geometry_version,
                 store_pending: false,
                 loads: 0,
