@@ -23,6 +23,15 @@ struct HaarStep {
 @group(2) @binding(2) var<storage, read_write> haar_scaling: array<Coefficient>;
 @group(2) @binding(3) var<storage, read_write> haar_out: array<Coefficient>;
 
+// The area of the support of coefficient `index` (in the Mallat layout), relative to its face's: 1 for
+// the scaling coefficient and the coarsest details, 1/4 for the next level, ..., 4 / CUBE_SIZE² for
+// the finest. The CPU twin is `wavelet::haar_support_area`.
+fn haar_support_area(index: u32) -> f32 {
+    let xy = cube_texel_xy(index);
+    let level = f32(1u << firstLeadingBit(max(max(xy.x, xy.y), 1u)));
+    return 1.0 / (level * level);
+}
+
 @compute @workgroup_size(64)
 fn haar_level(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let i = id.x + id.y * groups.x * 64u;

@@ -33,6 +33,8 @@ use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, Tec
 #[cfg(test)]
 mod tests;
 mod wavelet;
+#[cfg(test)]
+mod wavelet_tests;
 
 use wavelet::{WaveletPasses, WaveletSettings};
 
@@ -100,14 +102,14 @@ pub const PARAMS: [ParamSpec; 16] = [
         kind: ParamKind::Int { min: 1, max: 6 * (wavelet::MAX_RESOLUTION * wavelet::MAX_RESOLUTION) as i64 },
         default: "61",
         doc: "transfer=wavelet: the environment's largest Haar coefficients kept each time it changes or \
-              turns (at resolution 32, 6 = 0.1 %, 18 = 0.3 %, 61 = 1 % of the 6144)",
+              turns (at resolution 32, 6 = 0.1 %, 18 = 0.3 %, 61 = 1 % of the 6144; at most all of them)",
     },
     ParamSpec {
         name: "wavelet_transfer_terms",
         kind: ParamKind::Int { min: 1, max: 6 * (wavelet::MAX_RESOLUTION * wavelet::MAX_RESOLUTION) as i64 },
-        default: "256",
-        doc: "transfer=wavelet: each vertex's largest Haar coefficients of transfer kept (4 bytes each: a \
-              16-bit index and an f16 value)",
+        default: "512",
+        doc: "transfer=wavelet: each vertex's largest Haar coefficients of transfer kept, weighted by their \
+              support's area (4 bytes each: a 16-bit index and an f16 value; at most all 6 × resolution²)",
     },
     ParamSpec {
         name: "transfer_cache",
@@ -142,19 +144,8 @@ fn validate(p: &ParamValues) -> Result<(), String> {
         ));
     }
     let resolution = p.int("wavelet_resolution");
-    if p.choice("transfer") == "wavelet" {
-        if !(resolution as u32).is_power_of_two() {
-            return Err(format!("wavelet_resolution must be a power of two (got {resolution})"));
-        }
-        let texels = i64::from(wavelet::cube_texels(resolution as u32));
-        for name in ["wavelet_terms", "wavelet_transfer_terms"] {
-            if p.int(name) > texels {
-                return Err(format!(
-                    "{name} = {} is more than the {texels} coefficients of a {resolution}² cube map",
-                    p.int(name)
-                ));
-            }
-        }
+    if p.choice("transfer") == "wavelet" && !(resolution as u32).is_power_of_two() {
+        return Err(format!("wavelet_resolution must be a power of two (got {resolution})"));
     }
     Ok(())
 }
@@ -309,10 +300,13 @@ impl Prt {
         let interreflected = kind == "interreflected";
         let channels: u32 = if interreflected { 3 } else { 1 };
         let bounces = if interreflected { p.int("bounces") as u32 } else { 0 };
+        let resolution = p.int("wavelet_resolution") as u32;
+        // More terms than the cube has coefficients is all of them.
+        let terms = |name| (p.int(name) as u32).min(wavelet::cube_texels(resolution));
         let wavelet_settings = WaveletSettings {
-            resolution: p.int("wavelet_resolution") as u32,
-            transfer_terms: p.int("wavelet_transfer_terms") as u32,
-            lighting_terms: p.int("wavelet_terms") as u32,
+            resolution,
+            transfer_terms: terms("wavelet_transfer_terms"),
+            lighting_terms: terms("wavelet_terms"),
             shadowed: true,
         };
         let floats_per_vertex = if glossy {
@@ -332,9 +326,10 @@ impl Prt {
             .transpose()?;
 
         let bytes = u64::from(vertices.max(1)) * u64::from(floats_per_vertex) * 4;
+        let lower = if wavelets { "wavelet_transfer_terms" } else { "order" };
         let too_large = |e| {
             RenderError::InvalidSettings(format!(
-                "prt: {e}; lower order ({floats_per_vertex} floats of transfer per vertex)"
+                "prt: {e}; lower {lower} ({floats_per_vertex} words of transfer per vertex)"
             ))
         };
         let storage =
@@ -398,7 +393,12 @@ impl Prt {
                 transferred,
             }
         } else if wavelets {
-            TransferPasses::Wavelets(Box::new(WaveletPasses::new(setup, &wavelet_settings, vertices, &buffer)?))
+            TransferPasses::Wavelets(Box::new(WaveletPasses::new(
+                setup,
+                &wavelet_settings,
+                vertices,
+                &buffer,
+            )?))
         } else {
             let bounce_bytes = if interreflected { bytes } else { 4 };
             let bounce_buffers =

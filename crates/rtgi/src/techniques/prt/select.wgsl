@@ -13,7 +13,7 @@ var<workgroup> select_above: array<u32, SELECT_LANES>;
 var<workgroup> select_ties: array<u32, SELECT_LANES>;
 
 fn magnitude_bits(row: u32, index: u32) -> u32 {
-    return bitcast<u32>(magnitude(haar_out[row * CUBE_TEXELS + index]));
+    return bitcast<u32>(magnitude(haar_out[row * CUBE_TEXELS + index], index));
 }
 
 // The row's magnitudes ≥ `threshold` (the same in every invocation).

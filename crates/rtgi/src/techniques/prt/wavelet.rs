@@ -77,9 +77,11 @@ impl HaarScratch {
     ) -> Result<(HaarScratch, wgpu::Buffer), RenderError> {
         let ctx = setup.ctx;
         let buffer = |name: &str| {
-            BufferBuilder::new(&format!("{label} {name}"), bytes).storage().copy().build(ctx).map_err(|e| {
-                RenderError::InvalidSettings(format!("prt: {e}; lower wavelet_resolution"))
-            })
+            BufferBuilder::new(&format!("{label} {name}"), bytes)
+                .storage()
+                .copy()
+                .build(ctx)
+                .map_err(|e| RenderError::InvalidSettings(format!("prt: {e}; lower wavelet_resolution")))
         };
         let (a, b, out) = (buffer("scaling a")?, buffer("scaling b")?, buffer("coefficients")?);
         let group = |input: &wgpu::Buffer, scaling: &wgpu::Buffer| {
@@ -171,7 +173,8 @@ pub struct WaveletPasses {
     lighting_steps: DispatchSlots,
     /// The frame's kept lighting coefficients, zero elsewhere (vec4f per coefficient).
     pub kept_lighting: wgpu::Buffer,
-    /// The lighting's whole transform (vec4f per coefficient), for tests.
+    /// The lighting's whole transform (vec4f per coefficient), which the tests check.
+    #[cfg_attr(not(test), allow(dead_code))]
     pub lighting_coefficients: wgpu::Buffer,
     /// Every vertex's irradiance (vec4f, rgb).
     pub irradiance: wgpu::Buffer,
@@ -254,7 +257,11 @@ impl WaveletPasses {
             &lighting_layout,
             &lighting_steps,
             coefficient_bytes,
-            &[kept_lighting.as_entire_binding(), transfer.as_entire_binding(), irradiance.as_entire_binding()],
+            &[
+                kept_lighting.as_entire_binding(),
+                transfer.as_entire_binding(),
+                irradiance.as_entire_binding(),
+            ],
         )?;
         let lighting_source = wavelet_wgsl(true);
         let lighting_pipeline = |entry: &str| {
@@ -300,7 +307,8 @@ impl WaveletPasses {
         let per_chunk = offsets.len() / self.vertices.div_ceil(self.chunk).max(1) as usize;
         for (c, offsets) in offsets.chunks(per_chunk.max(1)).enumerate() {
             let rows = self.chunk.min(self.vertices - c as u32 * self.chunk);
-            let [x, y, _] = workgroups_for(rows * cube_texels(self.resolution), WORKGROUP, self.max_workgroups);
+            let [x, y, _] =
+                workgroups_for(rows * cube_texels(self.resolution), WORKGROUP, self.max_workgroups);
             encode_rows(
                 pass,
                 &self.transfer_scratch,
@@ -381,7 +389,7 @@ impl WaveletPasses {
 pub fn cube_point(face: u32, a: f32, b: f32) -> glam::Vec3 {
     let axis = (face / 2) as usize;
     let mut p = [0.0f32; 3];
-    p[axis] = if face % 2 == 0 { 1.0 } else { -1.0 };
+    p[axis] = if face.is_multiple_of(2) { 1.0 } else { -1.0 };
     p[(axis + 1) % 3] = a;
     p[(axis + 2) % 3] = b;
     glam::Vec3::from_array(p)
@@ -398,6 +406,16 @@ pub fn cube_texel(resolution: u32, texel: u32) -> (glam::Vec3, f32) {
     let (lo, hi) = ((coordinate(x, 0.0), coordinate(y, 0.0)), (coordinate(x, 1.0), coordinate(y, 1.0)));
     let solid_angle = corner(hi.0, hi.1) - corner(lo.0, hi.1) - corner(hi.0, lo.1) + corner(lo.0, lo.1);
     (cube_point(face, coordinate(x, 0.5), coordinate(y, 0.5)).normalize(), solid_angle)
+}
+
+/// The CPU twin of haar.wgsl's `haar_support_area`: coefficient `index`'s support's area over its
+/// face's.
+#[cfg(test)]
+pub fn haar_support_area(resolution: u32, index: u32) -> f64 {
+    let i = index % (resolution * resolution);
+    let m = (i % resolution).max(i / resolution).max(1);
+    let level = f64::from(1u32 << m.ilog2());
+    1.0 / (level * level)
 }
 
 /// The CPU twin of haar.wgsl: the non-standard orthonormal Haar transform of one `resolution`²

@@ -15,7 +15,7 @@
 
 const LIGHT_SUBSAMPLES: u32 = 4u;
 
-fn magnitude(c: vec4f) -> f32 {
+fn magnitude(c: vec4f, index: u32) -> f32 {
     return luminance(abs(c.rgb));
 }
 

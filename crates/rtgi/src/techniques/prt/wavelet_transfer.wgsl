@@ -4,7 +4,7 @@
 // texel's centre (one ray through the shared BVH; SHADOWED false leaves V = 1), the clamped cosine
 // and the texel's solid angle, so that Σ_t T_t L_t is the vertex's irradiance from an environment of
 // texel radiances L_t. haar.wgsl turns every face into Haar wavelets and select.wgsl keeps each
-// vertex's `kept` largest coefficients: transfer_terms[vertex · kept + slot] holds the coefficient's
+// vertex's `kept` largest coefficients (area-weighted, below): transfer_terms[vertex · kept + slot] holds the coefficient's
 // index (high 16 bits) and its value as f16 (low 16 bits); unused slots are 0 (index 0, value 0).
 // The host processes the vertices in chunks of `rows` (the scratch buffers hold one chunk).
 
@@ -12,8 +12,13 @@
 
 @group(2) @binding(4) var<storage, read_write> transfer_terms: array<u32>;
 
-fn magnitude(c: f32) -> f32 {
-    return abs(c);
+// Area-weighted selection: a coefficient's magnitude times the area of its support (relative to the
+// face's). The lighting's kept terms are coarse ones and the fine ones of its bright, small sources; a
+// fine transfer term matters only where such a source is, and there the coarse terms matter too.
+// Measured on pillars:sky=patch at 6 × 32², 256 terms, 128²: relative MSE against the ray-traced
+// environment light 0.0066 by magnitude alone, 0.0050 area-weighted (0.0247 weighted the other way).
+fn magnitude(c: f32, index: u32) -> f32 {
+    return abs(c) * haar_support_area(index);
 }
 
 fn keep_term(row: u32, slot: u32, index: u32) {
