@@ -69,8 +69,13 @@ def main():
     scenes = list(dict.fromkeys(c["scene"] for c in cells))
     for scene in scenes:
         own = [c for c in cells if c["scene"] == scene]
+        lines += [f"## {scene}", ""]
+        reference = next((e.get("set") for e in suite.get("scenes", []) if e["scene"] == scene), None)
+        if reference:
+            settings = ", ".join(f"{k} = {v}" for k, v in reference.items())
+            lines += [f"This scene's reference is the path tracer with {settings} (not full GI).", ""]
         lines += [
-            f"## {scene}", "", cheaper_text(own), "",
+            cheaper_text(own), "",
             "| cell | ms/frame | shading ms | precomputation ms | FLIP | relMSE | path's FLIP at this time "
             "| FLIP / path's |",
             "|---|---:|---:|---:|---:|---:|---:|---:|",

@@ -2,7 +2,7 @@
 // and select.wgsl with `alias Coefficient = vec4f` (radiance in rgb): the environment, as the world
 // sees it now (turned), resampled onto the cube (each texel the solid-angle-weighted mean of
 // LIGHT_SUBSAMPLES² points), turned into Haar wavelets, and its `kept` largest coefficients (by the
-// luminance of their absolute values) kept in a dense, otherwise zero array: the per-frame non-linear
+// luminance of their absolute values, area-weighted) kept in a dense, otherwise zero array: the per-frame non-linear
 // approximation. Every vertex's irradiance is then the sparse dot product of its kept transfer terms
 // (wavelet_transfer.wgsl) with that array.
 
@@ -15,8 +15,12 @@
 
 const LIGHT_SUBSAMPLES: u32 = 4u;
 
+// Area-weighted selection (Ng et al. 2003, §5): the luminance of the coefficient's absolute value
+// times its support's area. By magnitude alone a small bright source (whose fine coefficients carry
+// most of the L2 energy) takes every term and the rest of the sky goes dark: on pillars:sky=patch at
+// 6 × 32², 6 and 18 terms gave FLIP 0.706 and 0.436 against the full-GI reference.
 fn magnitude(c: vec4f, index: u32) -> f32 {
-    return luminance(abs(c.rgb));
+    return luminance(abs(c.rgb)) * haar_support_area(index);
 }
 
 fn keep_term(row: u32, slot: u32, index: u32) {

@@ -253,13 +253,20 @@ fn wavelet_passes_match_their_cpu_twins() {
     };
     let kept = read_vec4(&f, &wavelets(&prt).kept_lighting);
     let coefficients = read_vec4(&f, &wavelets(&prt).lighting_coefficients);
-    let luminance = |c: &DVec3| c.abs().dot(DVec3::new(0.2126, 0.7152, 0.0722));
+    // Area-weighted luminance.
+    let weighted: Vec<f64> = coefficients
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            c.abs().dot(DVec3::new(0.2126, 0.7152, 0.0722)) * haar_support_area(resolution, i as u32)
+        })
+        .collect();
     let kept_count = kept.iter().filter(|k| k.max_element() != 0.0 || k.min_element() != 0.0).count();
-    let eighth = largest(coefficients.iter().map(luminance).collect(), 8);
+    let eighth = largest(weighted.clone(), 8);
     assert_eq!(kept_count, 8);
-    for (k, c) in kept.iter().zip(&coefficients) {
+    for ((k, c), w) in kept.iter().zip(&coefficients).zip(&weighted) {
         let is_kept = k.max_element() != 0.0 || k.min_element() != 0.0;
-        assert_eq!(is_kept, luminance(c) >= eighth, "kept {k} of {c} (the 8th largest {eighth})");
+        assert_eq!(is_kept, *w >= eighth, "kept {k} of {c} (the 8th largest {eighth})");
     }
     for (v, terms) in read_terms(&f, &prt).iter().enumerate() {
         // Area-weighted magnitudes.
