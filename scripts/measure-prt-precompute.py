@@ -7,7 +7,7 @@ vertex count (issue 14): time, memory and ray throughput.
 
 Renders one 32×32 frame of `prt` (order 4, 256 directions per vertex, transfer_cache=off so every run
 precomputes) on spheres-env with 2 to 10 spheres per row (`count`; 64×32 segments per sphere) for each
-transfer kind, and reads from the stats the `transfer precomputation` pass's GPU time, the transfer's
+transfer kind (wavelet transfer at 6 × 16² texels, 512 terms per vertex), and reads from the stats the `transfer precomputation` pass's GPU time, the transfer's
 bytes, vertices and rays. Rays/s = rays / precomputation time. A least-squares line time = a + b·vertices
 shows whether the cost is linear in the vertex count. Options: --counts N,N,..., --doc NAME, --allow-dirty.
 """
@@ -20,7 +20,8 @@ import measure_common as m  # noqa: E402
 
 SCRIPT = "measure-prt-precompute.py"
 PASS = "transfer precomputation"
-KINDS = [("unshadowed", {}), ("shadowed", {}), ("interreflected", {"bounces": 1})]
+KINDS = [("unshadowed", {}), ("shadowed", {}), ("interreflected", {"bounces": 1}),
+         ("wavelet", {"wavelet_resolution": 16, "wavelet_transfer_terms": 512})]
 
 
 def precompute(rtgi, out, count, transfer, extra):
@@ -73,7 +74,9 @@ def main():
         "distributed directions per vertex and bounce; `transfer_cache=off`) on `spheres-env:count=N` (2N "
         "spheres of 64×32 segments on a ground). ms: the `transfer precomputation` pass's GPU time; bytes: "
         "the transfer buffer; rays: vertices × directions × (1 + bounces) (unshadowed transfer traces none: "
-        "its directions are only projected); interreflected: 1 bounce.", "",
+        "its directions are only projected); interreflected: 1 bounce; wavelet: a 6 × 16² cube map, one ray "
+        "per texel facing the vertex (768), then the Haar transform and the selection of 512 terms per "
+        "vertex (4 bytes each), all in the pass.", "",
         "| transfer | spheres | vertices | bytes | ms | µs per vertex | rays/s |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]

@@ -18,7 +18,15 @@ import measure_common as m  # noqa: E402
 SCRIPT = "measure-prt-turning.py"
 SHADING = {"prt": "prt shading", "env-harmonics": "environment shading"}
 ROTATION = "environment rotation"
-RELIGHT = "transferred radiance"
+# Per-frame relighting of the vertices: glossy transfer's matrices times the turned SH; wavelet transfer's
+# resampled, transformed and approximated lighting, then every vertex's sparse dot product.
+RELIGHT = ["transferred radiance", "wavelet lighting", "wavelet vertex irradiance"]
+
+
+def relight_ms(cell):
+    """The cell's per-frame relighting passes' time in all (None when it has none)."""
+    times = [t for t in (m.pass_ms(cell, name) for name in RELIGHT) if t is not None]
+    return sum(times) if times else None
 
 
 def main():
@@ -36,7 +44,9 @@ def main():
         f"the first is compared with the path-traced full-GI reference at its time (spp: {ref_spp}). "
         "ms/frame: the whole frame's GPU time; rotation: the `environment rotation` pass (the SH band "
         "matrices are built on the CPU and are not in it); relight: glossy transfer's `transferred radiance` "
-        "pass (every vertex's matrix times the turned sky's SH, again every frame); × direct: ms/frame "
+        "pass (every vertex's matrix times the turned sky's SH, again every frame), or wavelet transfer's "
+        "`wavelet lighting` (the turned sky resampled onto the cube, transformed, its largest terms kept) "
+        "and `wavelet vertex irradiance` (every vertex's sparse dot product) passes; × direct: ms/frame "
         "over direct's"
         + (". On lavapipe: compare cells with each other, not with GPU figures." if cpu else "."), "",
         "| cell | ms/frame | × direct | shading ms | rotation ms | relight ms | FLIP | relMSE |",
@@ -45,7 +55,7 @@ def main():
     for c in cells:
         shading = m.pass_ms(c, SHADING.get(c["technique"], ""))
         rotation = m.pass_ms(c, ROTATION)
-        relight = m.pass_ms(c, RELIGHT)
+        relight = relight_ms(c)
         ratio = c["frame_ms"] / direct[0] if direct else None
         lines.append(f"| {m.label(c)} | {c['frame_ms']:.2f} | {f'{ratio:.2f}' if ratio is not None else '–'} | "
                      f"{f'{shading:.2f}' if shading is not None else '–'} | "

@@ -10,12 +10,13 @@
 //! of its vertices' interpolated transfer with the environment's SH (shade_diffuse.wgsl); glossy
 //! transfer multiplies every vertex's matrix with the environment's SH when either changes, then
 //! integrates the interpolated result against the whole BRDF in the view direction through the SH
-//! BRDF tables (shade_glossy.wgsl). Lights and emitters come from the direct pass as in `direct`.
+//! BRDF tables (shade_glossy.wgsl). `transfer=wavelet` is all-frequency shadowed transfer in Haar
+//! wavelets over a cube map of the environment (Ng, Ramamoorthi & Hanrahan 2003; [`wavelet`]).
+//! Lights and emitters come from the direct pass as in `direct`.
 //!
 //! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
-//! corners, so shadows need tessellated meshes (as in the paper). Not built yet (issue 14): Haar
-//! wavelets, per-texel transfer, interreflected glossy transfer and rigid self-transfer of moving
-//! meshes.
+//! corners, so shadows need tessellated meshes (as in the paper). Not built yet (issue 14): per-texel
+//! transfer, interreflected glossy transfer and rigid self-transfer of moving meshes.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
@@ -31,9 +32,14 @@ use super::{FrameContext, FrameNeeds, RenderError, Technique, TechniqueInfo, Tec
 
 #[cfg(test)]
 mod tests;
+mod wavelet;
+#[cfg(test)]
+mod wavelet_tests;
+
+use wavelet::{WaveletPasses, WaveletSettings};
 
 /// What the transfer vectors hold.
-pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected", "glossy"];
+pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected", "glossy", "wavelet"];
 
 /// The highest order of glossy transfer: a batch's harmonics (`GLOSSY_BATCH` × order² floats of
 /// glossy.wgsl) must fit the 16 KiB of workgroup memory every device has, and a matrix has
@@ -45,7 +51,7 @@ const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
 
 /// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
 /// own.
-pub const PARAMS: [ParamSpec; 13] = [
+pub const PARAMS: [ParamSpec; 16] = [
     DIRECT_PARAMS[0],
     DIRECT_PARAMS[1],
     DIRECT_PARAMS[2],
@@ -62,7 +68,8 @@ pub const PARAMS: [ParamSpec; 13] = [
               bounces of the environment's light between the surfaces (RGB: 3 × order² per vertex); \
               glossy: a matrix per vertex from the environment's SH to the vertex's shadowed incident \
               radiance, shaded with the whole BRDF (diffuse and specular lobes; order ≤ 6, \
-              order²(order² + 1)/2 floats per vertex)",
+              order²(order² + 1)/2 floats per vertex); wavelet: shadowed transfer in Haar wavelets over \
+              a cube map of the environment (all-frequency shadows; `wavelet_*`, not `order`)",
     },
     ParamSpec {
         name: "bounces",
@@ -84,6 +91,27 @@ pub const PARAMS: [ParamSpec; 13] = [
     },
     PROJECTION_BANDS_PARAM,
     ParamSpec {
+        name: "wavelet_resolution",
+        kind: ParamKind::Int { min: 4, max: wavelet::MAX_RESOLUTION as i64 },
+        default: "32",
+        doc: "transfer=wavelet: texels per cube face side (a power of two; 6 × resolution² coefficients, \
+              one visibility ray per texel and vertex)",
+    },
+    ParamSpec {
+        name: "wavelet_terms",
+        kind: ParamKind::Int { min: 1, max: 6 * (wavelet::MAX_RESOLUTION * wavelet::MAX_RESOLUTION) as i64 },
+        default: "61",
+        doc: "transfer=wavelet: the environment's largest Haar coefficients kept each time it changes or \
+              turns (at resolution 32, 6 = 0.1 %, 18 = 0.3 %, 61 = 1 % of the 6144; at most all of them)",
+    },
+    ParamSpec {
+        name: "wavelet_transfer_terms",
+        kind: ParamKind::Int { min: 1, max: 6 * (wavelet::MAX_RESOLUTION * wavelet::MAX_RESOLUTION) as i64 },
+        default: "512",
+        doc: "transfer=wavelet: each vertex's largest Haar coefficients of transfer kept, weighted by their \
+              support's area (4 bytes each: a 16-bit index and an f16 value; at most all 6 × resolution²)",
+    },
+    ParamSpec {
         name: "transfer_cache",
         kind: ParamKind::Choice(&["on", "off"]),
         default: "on",
@@ -96,7 +124,8 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "prt",
     description: "precomputed radiance transfer: per-vertex SH transfer vectors (unshadowed, shadowed, \
                   interreflected) or glossy transfer matrices applied to the environment's SH (Sloan, \
-                  Kautz & Snyder 2002)",
+                  Kautz & Snyder 2002), or shadowed transfer in Haar wavelets over a cube map (Ng, \
+                  Ramamoorthi & Hanrahan 2003)",
     params: &PARAMS,
     needs: FrameNeeds { gbuffer: true },
     features: &[super::ACCUMULATES_OUTPUT],
@@ -113,6 +142,10 @@ fn validate(p: &ParamValues) -> Result<(), String> {
              workgroup memory",
             p.int("order")
         ));
+    }
+    let resolution = p.int("wavelet_resolution");
+    if p.choice("transfer") == "wavelet" && !(resolution as u32).is_power_of_two() {
+        return Err(format!("wavelet_resolution must be a power of two (got {resolution})"));
     }
     Ok(())
 }
@@ -161,6 +194,8 @@ enum TransferPasses {
         /// Order² vec4f per vertex.
         transferred: wgpu::Buffer,
     },
+    /// Wavelet transfer terms and the per-frame wavelet lighting.
+    Wavelets(Box<WaveletPasses>),
 }
 
 /// A geometry's transfer and the passes that compute it.
@@ -169,7 +204,8 @@ struct Transfer {
     passes: TransferPasses,
     batches: DispatchSlots,
     vertices: u32,
-    /// Floats per vertex: order² coefficients × colour channels, or a matrix's upper triangle.
+    /// Floats per vertex: order² coefficients × colour channels, a matrix's upper triangle, or the kept
+    /// wavelet terms (a packed u32 each).
     floats_per_vertex: u32,
     /// Coefficients per colour channel of the environment's SH.
     coefficients: u32,
@@ -197,11 +233,12 @@ struct TransferCache {
 /// The cache key of the transfer: the crate version, this file (how the passes are dispatched), the
 /// transfer shader as composed with its defines and imports, the settings, and every vertex, index,
 /// material and texture of the scene the GPU scene was uploaded from (interreflection reads albedos).
-fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: [u32; 4]) -> u64 {
+fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: &[u32]) -> u64 {
     let mut h = crate::cache::StableHasher::default();
-    h.str(env!("CARGO_PKG_VERSION")).str(include_str!("mod.rs")).str(composed_shader);
+    h.str(env!("CARGO_PKG_VERSION")).str(include_str!("mod.rs")).str(include_str!("wavelet.rs"));
+    h.str(composed_shader);
     for v in settings {
-        h.u32(v);
+        h.u32(*v);
     }
     for m in &scene.meshes {
         h.u32(m.material).u32(m.positions.len() as u32).u32(m.indices.len() as u32);
@@ -230,7 +267,8 @@ fn transfer_key(scene: &crate::scene::Scene, composed_shader: &str, settings: [u
 
 struct Prt {
     direct: DirectLighting,
-    projection: EnvironmentProjection,
+    /// The environment's SH (`None` for wavelet transfer, which resamples it onto a cube instead).
+    projection: Option<EnvironmentProjection>,
     transfer: Transfer,
     /// Glossy transfer's BRDF tables (built on the first frame).
     tables: Option<BrdfTables>,
@@ -258,21 +296,40 @@ impl Prt {
         let count = order * order;
         let kind = p.choice("transfer");
         let glossy = kind == "glossy";
+        let wavelets = kind == "wavelet";
         let interreflected = kind == "interreflected";
         let channels: u32 = if interreflected { 3 } else { 1 };
         let bounces = if interreflected { p.int("bounces") as u32 } else { 0 };
-        let floats_per_vertex = if glossy { count * (count + 1) / 2 } else { count * channels };
+        let resolution = p.int("wavelet_resolution") as u32;
+        // More terms than the cube has coefficients is all of them.
+        let terms = |name| (p.int(name) as u32).min(wavelet::cube_texels(resolution));
+        let wavelet_settings = WaveletSettings {
+            resolution,
+            transfer_terms: terms("wavelet_transfer_terms"),
+            lighting_terms: terms("wavelet_terms"),
+            shadowed: true,
+        };
+        let floats_per_vertex = if glossy {
+            count * (count + 1) / 2
+        } else if wavelets {
+            wavelet_settings.transfer_terms
+        } else {
+            count * channels
+        };
         let vertices = u32::try_from(setup.scene.vertex_count())
             .map_err(|_| RenderError::InvalidSettings("prt: the scene has more than 2³² vertices".into()))?;
 
         // The environment is this technique's: the direct pass adds lights and emitters only.
         let (direct, direct_target) = DirectLighting::without_environment(setup, "prt")?;
-        let projection = EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32)?;
+        let projection = (!wavelets)
+            .then(|| EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32))
+            .transpose()?;
 
         let bytes = u64::from(vertices.max(1)) * u64::from(floats_per_vertex) * 4;
+        let lower = if wavelets { "wavelet_transfer_terms" } else { "order" };
         let too_large = |e| {
             RenderError::InvalidSettings(format!(
-                "prt: {e}; lower order ({floats_per_vertex} floats of transfer per vertex)"
+                "prt: {e}; lower {lower} ({floats_per_vertex} words of transfer per vertex)"
             ))
         };
         let storage =
@@ -326,7 +383,7 @@ impl Prt {
                 &layouts(&transfer_layout),
             )
         };
-        let passes = if glossy {
+        let passes = if let Some(projection) = projection.as_ref().filter(|_| glossy) {
             let transferred =
                 storage("prt transferred radiance", u64::from(vertices.max(1)) * u64::from(count) * 16)?;
             TransferPasses::Matrices {
@@ -335,6 +392,13 @@ impl Prt {
                 group: transfer_group(&projection.coefficients, &transferred),
                 transferred,
             }
+        } else if wavelets {
+            TransferPasses::Wavelets(Box::new(WaveletPasses::new(
+                setup,
+                &wavelet_settings,
+                vertices,
+                &buffer,
+            )?))
         } else {
             let bounce_bytes = if interreflected { bytes } else { 4 };
             let bounce_buffers =
@@ -351,10 +415,23 @@ impl Prt {
             }
         };
         let cache = (p.choice("transfer_cache") == "on").then(|| -> Result<TransferCache, RenderError> {
-            let composed = crate::shaders::compose("prt transfer", &transfer_source, &defines)?;
+            let composed = if wavelets {
+                let defines = defines.clone().u32("CUBE_SIZE", wavelet_settings.resolution);
+                crate::shaders::compose("prt wavelet transfer", &wavelet::wavelet_wgsl(false), &defines)?
+            } else {
+                crate::shaders::compose("prt transfer", &transfer_source, &defines)?
+            };
+            let settings = [
+                order,
+                samples,
+                channels,
+                bounces,
+                wavelet_settings.resolution,
+                wavelet_settings.transfer_terms,
+            ];
             Ok(TransferCache {
                 disk: crate::cache::DiskCache::new(crate::cache::precomputed_dir(), "prt-transfer"),
-                key: transfer_key(setup.scene, &composed, [order, samples, channels, bounces]),
+                key: transfer_key(setup.scene, &composed, &settings),
                 geometry: setup.gpu_scene.geometry_version,
                 store_pending: false,
                 loads: 0,
@@ -382,12 +459,15 @@ impl Prt {
         let mut shade_entries = vec![
             compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
             storage_texture_entry(1, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
-            read_only(2),
+            compute::uniform_entry(2),
             read_only(3),
-            compute::uniform_entry(4),
         ];
+        if !wavelets {
+            // The environment's SH (diffuse) or the Rx(90°) blocks (glossy).
+            shade_entries.push(read_only(4));
+        }
         if glossy {
-            shade_entries.extend([read_only(5), read_only(6)]);
+            shade_entries.push(read_only(5));
         }
         let shade_layout = compute::layout(ctx, "prt shade", &shade_entries);
         let (direct_view, output_view) =
@@ -395,13 +475,16 @@ impl Prt {
         let mut shade_resources = vec![
             wgpu::BindingResource::TextureView(&direct_view),
             wgpu::BindingResource::TextureView(&output_view),
-            projection.coefficients.as_entire_binding(),
+            shape.as_entire_binding(),
             match &passes {
                 TransferPasses::Matrices { transferred, .. } => transferred.as_entire_binding(),
+                TransferPasses::Wavelets(w) => w.irradiance.as_entire_binding(),
                 TransferPasses::Vectors { .. } => buffer.as_entire_binding(),
             },
-            shape.as_entire_binding(),
         ];
+        if let (TransferPasses::Vectors { .. }, Some(projection)) = (&passes, &projection) {
+            shade_resources.push(projection.coefficients.as_entire_binding());
+        }
         if let (Some(rotation), Some(tables)) = (&rotation, &tables) {
             shade_resources.extend([rotation.as_entire_binding(), tables.buffer.as_entire_binding()]);
         }
@@ -413,7 +496,7 @@ impl Prt {
         let shade = compute::pipeline(
             ctx,
             "prt shade",
-            &shade_wgsl(glossy),
+            &shade_wgsl(kind),
             shade_defines,
             "main",
             &layouts(&shade_layout),
@@ -492,6 +575,15 @@ impl Prt {
         profiler.pass(fc.ctx, "transfer precomputation", |encoder| {
             encoder.clear_buffer(&t.buffer, 0, None);
             match &t.passes {
+                TransferPasses::Wavelets(w) => {
+                    let mut pass = crate::gpu::dispatch::compute_pass(
+                        encoder,
+                        "transfer precomputation",
+                        &w.visibility,
+                        &groups,
+                    );
+                    w.encode_precompute(&mut pass);
+                }
                 TransferPasses::Matrices { accumulate, group, .. } => {
                     // A workgroup per vertex.
                     let [gx, gy, _] = workgroups_for(t.vertices * GLOSSY_BATCH, GLOSSY_BATCH, max);
@@ -557,13 +649,16 @@ fn transfer_wgsl(glossy: bool) -> String {
     format!("{}\n{passes}", include_str!("lattice.wgsl"))
 }
 
-/// The shading pass's shader: the pixel's triangle and point, then diffuse or glossy environment light.
-fn shade_wgsl(glossy: bool) -> String {
+/// The shading pass's shader for `transfer`: the pixel's triangle and point, then diffuse, glossy or
+/// wavelet environment light.
+fn shade_wgsl(transfer: &str) -> String {
     let shade = include_str!("shade.wgsl");
-    if glossy {
-        format!("{shade}\n{LOOKUP_WGSL}\n{SHADING_WGSL}\n{}", include_str!("shade_glossy.wgsl"))
-    } else {
-        format!("{shade}\n{}", include_str!("shade_diffuse.wgsl"))
+    match transfer {
+        "glossy" => {
+            format!("{shade}\n{LOOKUP_WGSL}\n{SHADING_WGSL}\n{}", include_str!("shade_glossy.wgsl"))
+        }
+        "wavelet" => format!("{shade}\n{}", include_str!("shade_wavelet.wgsl")),
+        _ => format!("{shade}\n{}", include_str!("shade_diffuse.wgsl")),
     }
 }
 
@@ -571,8 +666,17 @@ impl Technique for Prt {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         self.store_transfer(fc.ctx)?;
         let new_transfer = self.precompute(fc, profiler)?;
-        let new_environment = self.projection.project(fc, profiler)?;
+        let new_environment = match self.projection.as_mut() {
+            Some(projection) => projection.project(fc, profiler)?,
+            None => false,
+        };
         self.lit &= !new_transfer && !new_environment;
+        if let TransferPasses::Wavelets(w) = &mut self.transfer.passes {
+            if new_transfer {
+                w.invalidate();
+            }
+            w.light(fc, profiler)?;
+        }
         if let Some(tables) = self.tables.as_mut() {
             tables.build_once(fc, profiler)?;
         }
@@ -591,7 +695,12 @@ impl Technique for Prt {
         change: super::SceneChange,
     ) -> Result<bool, RenderError> {
         if change == super::SceneChange::Environment {
-            self.projection.invalidate();
+            if let Some(projection) = self.projection.as_mut() {
+                projection.invalidate();
+            }
+            if let TransferPasses::Wavelets(w) = &mut self.transfer.passes {
+                w.invalidate();
+            }
         }
         Ok(true)
     }
@@ -613,29 +722,45 @@ impl Technique for Prt {
             ("transfer_bytes".to_string(), self.transfer.buffer.size() as f64),
             (
                 "transfer_rays".to_string(),
-                f64::from(self.transfer.vertices)
-                    * f64::from(self.samples)
-                    * f64::from(1 + self.transfer.bounces),
+                match &self.transfer.passes {
+                    TransferPasses::Wavelets(w) => w.rays(),
+                    _ => {
+                        f64::from(self.transfer.vertices)
+                            * f64::from(self.samples)
+                            * f64::from(1 + self.transfer.bounces)
+                    }
+                },
             ),
             // The direct pass's target and the output, both f32 RGBA.
             ("output_bytes_per_pixel".to_string(), 32.0),
         ]);
-        if let TransferPasses::Matrices { transferred, .. } = &self.transfer.passes {
-            counters.insert("transferred_radiance_bytes".to_string(), transferred.size() as f64);
+        match &self.transfer.passes {
+            TransferPasses::Matrices { transferred, .. } => {
+                counters.insert("transferred_radiance_bytes".to_string(), transferred.size() as f64);
+            }
+            TransferPasses::Wavelets(w) => counters.extend(w.counters()),
+            TransferPasses::Vectors { .. } => {}
         }
         if let Some(tables) = &self.tables {
             counters.insert("brdf_table_bytes".to_string(), tables.shape.bytes() as f64);
         }
-        counters.extend(self.projection.counters());
+        if let Some(projection) = &self.projection {
+            counters.extend(projection.counters());
+        }
         Ok(counters)
     }
 
     fn warnings(&self) -> Vec<String> {
-        let mut warnings = vec![if self.tables.is_some() {
+        let wavelets = matches!(self.transfer.passes, TransferPasses::Wavelets(_));
+        let mut warnings = vec![if wavelets {
+            "prt: wavelet transfer is diffuse and shadowed (specular lobes get no environment light, \
+             there are no interreflections); back faces get no environment light"
+                .into()
+        } else if self.tables.is_some() {
             format!(
                 "prt: glossy transfer carries the environment's light in {} SH bands, too few for sharp \
                  reflections (low roughness is blurred); back faces get no environment light",
-                self.projection.coefficient_count().isqrt()
+                self.projection.as_ref().map_or(0, |p| p.coefficient_count().isqrt())
             )
         } else {
             "prt: diffuse transfer (specular lobes get no environment light; transfer=glossy gives them \

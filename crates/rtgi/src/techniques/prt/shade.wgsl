@@ -1,8 +1,8 @@
 // Per-pixel PRT shading: the surface under the pixel's primary ray (cast again through the shared BVH,
 // as the ray-cast G-buffer casts it, for the triangle and barycentrics the G-buffer does not keep) gets
 // the environment's light through its triangle's precomputed transfer, by `environment_light` of
-// shade_diffuse.wgsl (transfer vectors) or shade_glossy.wgsl (transfer matrices), one of which is
-// composed after this file. Back faces (seen against their normals) get none: transfer is for the side
+// shade_diffuse.wgsl (transfer vectors), shade_glossy.wgsl (transfer matrices) or shade_wavelet.wgsl
+// (wavelet transfer), one of which is composed after this file. Back faces (seen against their normals) get none: transfer is for the side
 // the normals point to. The direct pass's estimate (lights and emitters, the environment left out) is
 // added and the sum averaged over frames.
 
@@ -10,12 +10,11 @@
 
 @group(2) @binding(0) var direct: texture_2d<f32>;
 @group(2) @binding(1) var output: texture_storage_2d<rgba32float, read_write>;
-@group(2) @binding(2) var<storage, read> environment_sh: array<vec4f>;
 struct Shape {
     // A run-time value so that LLVM (lavapipe) does not unroll the per-coefficient loops.
     order: u32,
 }
-@group(2) @binding(4) var<uniform> shape: Shape;
+@group(2) @binding(2) var<uniform> shape: Shape;
 
 // A triangle's vertices and the barycentric weights of a point on it.
 struct TrianglePoint {

@@ -3,6 +3,8 @@
 // after: the same image, since both are linear), dotted with the environment's SH gives the
 // irradiance, times the diffuse lobe's reflectance / π.
 
+// The environment's SH (env_projection).
+@group(2) @binding(4) var<storage, read> environment_sh: array<vec4f>;
 // Per vertex, order² transfer coefficients of CHANNELS colours (transfer.wgsl).
 @group(2) @binding(3) var<storage, read> transfer: array<f32>;
 

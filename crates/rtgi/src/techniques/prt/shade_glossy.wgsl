@@ -6,8 +6,8 @@
 
 // Per vertex, order² coefficients of transferred radiance (rgb).
 @group(2) @binding(3) var<storage, read> transferred: array<vec4f>;
-@group(2) @binding(5) var<storage, read> rotation_x90: array<f32>;
-@group(2) @binding(6) var<storage, read> brdf_tables: array<f32>;
+@group(2) @binding(4) var<storage, read> rotation_x90: array<f32>;
+@group(2) @binding(5) var<storage, read> brdf_tables: array<f32>;
 
 // The point being shaded, for incident_sh.
 var<private> shaded: TrianglePoint;

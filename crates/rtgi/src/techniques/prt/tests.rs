@@ -7,7 +7,7 @@ use crate::scene::{Environment, Material};
 use crate::shaders::validate;
 use crate::techniques::fixture::{Fixture, fixture_of};
 
-fn params(settings: &[(&str, &str)]) -> ParamValues {
+pub(super) fn params(settings: &[(&str, &str)]) -> ParamValues {
     let settings: Vec<(String, String)> =
         settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
     ParamValues::from_settings("prt", &PARAMS, &settings).expect("params")
@@ -27,14 +27,21 @@ fn shaders_validate() {
         for glossy in [false, true] {
             let d = glossy_table_shape(4).defines(d.clone());
             validate("prt transfer", &transfer_wgsl(glossy), &d);
-            validate("prt shade", &shade_wgsl(glossy), &d);
+        }
+        for transfer in TRANSFERS {
+            let d = glossy_table_shape(4).defines(d.clone());
+            validate("prt shade", &shade_wgsl(transfer), &d);
+        }
+        let d = d.clone().u32("CUBE_SIZE", 8);
+        for lighting in [false, true] {
+            validate("prt wavelets", &wavelet::wavelet_wgsl(lighting), &d);
         }
     }
 }
 
 /// `spheres-env` (three spheres on a ground) with every material a white Lambertian (specular 0) and
 /// the environment `environment` (the scene's sky when `None`).
-fn white_spheres(environment: Option<Environment>) -> Fixture {
+pub(super) fn white_spheres(environment: Option<Environment>) -> Fixture {
     let mut scene =
         crate::scene::builtin::build("spheres-env", &[("count".into(), "3".into())]).expect("scene");
     if let Some(e) = environment {
@@ -102,7 +109,7 @@ fn unshadowed_transfer_is_the_clamped_cosine_about_the_vertex_normal() {
 const PI_Y0: f64 = std::f64::consts::PI * 0.282_094_791_773_878;
 
 /// The direct pass's ray-traced environment light (64 environment samples × 16 frames per pixel).
-fn direct_environment_light(f: &mut Fixture) -> Vec<Vec3> {
+pub(super) fn direct_environment_light(f: &mut Fixture) -> Vec<Vec3> {
     let direct_params = ParamValues::from_settings(
         "direct",
         &crate::techniques::direct::DIRECT_PARAMS,
@@ -114,7 +121,7 @@ fn direct_environment_light(f: &mut Fixture) -> Vec<Vec3> {
 }
 
 /// Σ |pixel − reference| / Σ reference over every channel.
-fn mean_relative_difference(pixels: &[Vec3], reference: &[Vec3]) -> f64 {
+pub(super) fn mean_relative_difference(pixels: &[Vec3], reference: &[Vec3]) -> f64 {
     let (mut num, mut den) = (0.0f64, 0.0f64);
     for (p, r) in pixels.iter().zip(reference) {
         num += f64::from((*p - *r).abs().element_sum());
@@ -192,7 +199,7 @@ fn transfer_is_computed_once_per_geometry() {
 }
 
 /// The procedural sky of common/environment.wgsl on the CPU, in its own frame.
-fn sky_radiance(environment: &Environment, d: glam::DVec3) -> glam::DVec3 {
+pub(super) fn sky_radiance(environment: &Environment, d: glam::DVec3) -> glam::DVec3 {
     let Environment::Sky { sun_direction, sun_radiance, sky_radiance, ground_radiance } = environment else {
         panic!("expected a sky")
     };
@@ -218,7 +225,7 @@ fn turned_sky_coefficients(environment: &Environment, turn: glam::DMat3, order: 
 }
 
 /// A turn about an axis far from every coordinate axis, so no band's matrix is zonal or a permutation.
-fn oblique_turn(degrees: f32) -> glam::Quat {
+pub(super) fn oblique_turn(degrees: f32) -> glam::Quat {
     glam::Quat::from_axis_angle(Vec3::new(0.4, 0.8, -0.45).normalize(), degrees.to_radians())
 }
 
@@ -234,8 +241,8 @@ fn a_turned_environment_is_projected_once_and_rotated() {
     let worst_against = |f: &mut Fixture, prt: &mut Prt, turn: glam::Quat| {
         let expected =
             turned_sky_coefficients(&f.scene.environment, glam::DMat3::from_quat(turn.as_dquat()), order);
-        let bytes = read_buffer(&f.ctx, &prt.projection.coefficients, 0, prt.projection.coefficients.size())
-            .expect("coefficients");
+        let coefficients = &prt.projection.as_ref().expect("projection").coefficients;
+        let bytes = read_buffer(&f.ctx, coefficients, 0, coefficients.size()).expect("coefficients");
         let got: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
         let scale = expected[0].max_element();
         got.iter()
@@ -265,8 +272,9 @@ fn a_turned_environment_is_projected_once_and_rotated() {
         if frame > 0 {
             assert!(unturned > 0.05 && inverted > 0.05, "the turn is too small to test");
         }
-        assert_eq!(prt.projection.projections, 1, "a turn must not project again");
-        assert_eq!(prt.projection.rotations, frame + 1);
+        let projection = prt.projection.as_ref().expect("projection");
+        assert_eq!(projection.projections, 1, "a turn must not project again");
+        assert_eq!(projection.rotations, frame + 1);
     }
     // Measured 1.30e-4, 1.41e-4 and 2.47e-4 at 0°, 70° and −125°: the GPU's 512² midpoint grid and the
     // CPU's 400-node Gauss–Legendre rule disagree where the sky meets the ground (1.3e-4 with no turn at
@@ -387,7 +395,7 @@ fn the_transfer_is_cached_on_disk_and_loaded_again() {
 }
 
 /// The unit normal a GPU vertex holds (octahedral, 16 bits per component).
-fn gpu_vertex_normal(v: &GpuVertex) -> glam::DVec3 {
+pub(super) fn gpu_vertex_normal(v: &GpuVertex) -> glam::DVec3 {
     let e = Vec2::new(
         f32::from(v.normal_oct as u16 as i16) / 32767.0,
         f32::from((v.normal_oct >> 16) as u16 as i16) / 32767.0,
