@@ -307,7 +307,6 @@ impl Prt {
             resolution,
             transfer_terms: terms("wavelet_transfer_terms"),
             lighting_terms: terms("wavelet_terms"),
-            shadowed: true,
         };
         let floats_per_vertex = if glossy {
             count * (count + 1) / 2
@@ -416,7 +415,7 @@ impl Prt {
         };
         let cache = (p.choice("transfer_cache") == "on").then(|| -> Result<TransferCache, RenderError> {
             let composed = if wavelets {
-                let defines = defines.clone().u32("CUBE_SIZE", wavelet_settings.resolution);
+                let defines = wavelet::wavelet_defines(setup, wavelet_settings.resolution, vertices);
                 crate::shaders::compose("prt wavelet transfer", &wavelet::wavelet_wgsl(false), &defines)?
             } else {
                 crate::shaders::compose("prt transfer", &transfer_source, &defines)?

@@ -36,6 +36,12 @@ pub fn cube_texels(resolution: u32) -> u32 {
     6 * resolution * resolution
 }
 
+/// The defines both wavelet shaders are compiled with (the transfer's cache key hashes the transfer
+/// shader composed with them).
+pub fn wavelet_defines(setup: &TechniqueSetup, resolution: u32, vertices: u32) -> Defines {
+    setup.gpu_scene.bvh_defines(Defines::new()).u32("VERTEX_COUNT", vertices).u32("CUBE_SIZE", resolution)
+}
+
 /// The composed source of the transfer passes (`f32` coefficients) or the lighting passes (`vec4f`).
 pub fn wavelet_wgsl(lighting: bool) -> String {
     let (alias, passes) = if lighting {
@@ -189,7 +195,6 @@ pub struct WaveletSettings {
     pub resolution: u32,
     pub transfer_terms: u32,
     pub lighting_terms: u32,
-    pub shadowed: bool,
 }
 
 impl WaveletPasses {
@@ -204,13 +209,11 @@ impl WaveletPasses {
         let texels = cube_texels(s.resolution);
         let max_workgroups = ctx.limits().max_compute_workgroups_per_dimension;
         let chunk = (SCRATCH_BYTES / (4 * u64::from(texels))).clamp(1, u64::from(vertices.max(1))) as u32;
-        let defines = setup
-            .gpu_scene
-            .bvh_defines(Defines::new())
-            .u32("VERTEX_COUNT", vertices)
-            .u32("CUBE_SIZE", s.resolution)
-            .bool("SHADOWED", s.shadowed);
-        let layouts = |own| [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, own];
+        let defines = wavelet_defines(setup, s.resolution, vertices);
+        let pipeline = |label: &str, source: &str, layout: &wgpu::BindGroupLayout, entry: &str| {
+            let layouts = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, layout];
+            compute::pipeline(ctx, label, source, defines.clone(), entry, &layouts)
+        };
 
         let transfer_values: Vec<HaarStep> = (0..vertices.div_ceil(chunk))
             .flat_map(|c| {
@@ -229,16 +232,8 @@ impl WaveletPasses {
             &[transfer.as_entire_binding()],
         )?;
         let transfer_source = wavelet_wgsl(false);
-        let transfer_pipeline = |entry: &str| {
-            compute::pipeline(
-                ctx,
-                "prt wavelet transfer",
-                &transfer_source,
-                defines.clone(),
-                entry,
-                &layouts(&transfer_layout),
-            )
-        };
+        let transfer_pipeline =
+            |entry: &str| pipeline("prt wavelet transfer", &transfer_source, &transfer_layout, entry);
 
         let mut lighting_values = row_steps(0, 1, s.resolution, s.lighting_terms);
         lighting_values.push(HaarStep { first_row: 0, rows: 1, size: s.resolution, kept: s.transfer_terms });
@@ -264,16 +259,8 @@ impl WaveletPasses {
             ],
         )?;
         let lighting_source = wavelet_wgsl(true);
-        let lighting_pipeline = |entry: &str| {
-            compute::pipeline(
-                ctx,
-                "prt wavelet lighting",
-                &lighting_source,
-                defines.clone(),
-                entry,
-                &layouts(&lighting_layout),
-            )
-        };
+        let lighting_pipeline =
+            |entry: &str| pipeline("prt wavelet lighting", &lighting_source, &lighting_layout, entry);
         Ok(WaveletPasses {
             resolution: s.resolution,
             vertices,

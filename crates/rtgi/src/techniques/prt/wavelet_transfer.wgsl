@@ -1,7 +1,7 @@
 // Wavelet transfer per vertex (Ng, Ramamoorthi & Hanrahan 2003), composed after cube.wgsl, haar.wgsl
 // and select.wgsl with `alias Coefficient = f32`. A vertex's transfer in the pixel basis of the cube
 // (cube.wgsl) is T_t = V(ω_t) max(0, n·ω_t) Ω_t: its visibility of the environment through the
-// texel's centre (one ray through the shared BVH; SHADOWED false leaves V = 1), the clamped cosine
+// texel's centre (one ray through the shared BVH), the clamped cosine
 // and the texel's solid angle, so that Σ_t T_t L_t is the vertex's irradiance from an environment of
 // texel radiances L_t. haar.wgsl turns every face into Haar wavelets and select.wgsl keeps each
 // vertex's `kept` largest coefficients (area-weighted, below): transfer_terms[vertex · kept + slot] holds the coefficient's
@@ -41,7 +41,7 @@ fn visibility_cube(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgr
         let n = vertex_normal(v);
         let d = cube_texel_direction(texel);
         let cosine = dot(n, d);
-        if cosine > 0.0 && (!SHADOWED || !trace_any(Ray(offset_origin(v.position, n), d), 0.0, FLT_MAX)) {
+        if cosine > 0.0 && !trace_any(Ray(offset_origin(v.position, n), d), 0.0, FLT_MAX) {
             value = cosine * cube_texel_solid_angle(texel);
         }
     }
