@@ -10,7 +10,8 @@
 //! of its vertices' interpolated transfer with the environment's SH (shade_diffuse.wgsl); glossy
 //! transfer multiplies every vertex's matrix with the environment's SH when either changes, then
 //! integrates the interpolated result against the whole BRDF in the view direction through the SH
-//! BRDF tables (shade_glossy.wgsl). `transfer=wavelet` is all-frequency shadowed transfer in Haar
+//! BRDF tables (`glossy_lobe=ggx`, shade_glossy_tables.wgsl) or reflects it with Sloan et al.'s
+//! Lambert and Phong lobes (`glossy_lobe=phong`, shade_glossy_phong.wgsl). `transfer=wavelet` is all-frequency shadowed transfer in Haar
 //! wavelets over a cube map of the environment (Ng, Ramamoorthi & Hanrahan 2003; [`wavelet`]).
 //! Lights and emitters come from the direct pass as in `direct`.
 //!
@@ -41,6 +42,9 @@ use wavelet::{WaveletPasses, WaveletSettings};
 /// What the transfer vectors hold.
 pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected", "glossy", "wavelet"];
 
+/// How glossy transfer's radiance is reflected (`glossy_lobe`).
+pub const GLOSSY_LOBES: &[&str] = &["ggx", "phong"];
+
 /// The highest order of glossy transfer: a batch's harmonics (`GLOSSY_BATCH` × order² floats of
 /// glossy.wgsl) must fit the 16 KiB of workgroup memory every device has, and a matrix has
 /// order²(order² + 1)/2 floats per vertex (666 at order 6).
@@ -51,7 +55,7 @@ const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
 
 /// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
 /// own.
-pub const PARAMS: [ParamSpec; 16] = [
+pub const PARAMS: [ParamSpec; 17] = [
     DIRECT_PARAMS[0],
     DIRECT_PARAMS[1],
     DIRECT_PARAMS[2],
@@ -70,6 +74,17 @@ pub const PARAMS: [ParamSpec; 16] = [
               radiance, shaded with the whole BRDF (diffuse and specular lobes; order ≤ 6, \
               order²(order² + 1)/2 floats per vertex); wavelet: shadowed transfer in Haar wavelets over \
               a cube map of the environment (all-frequency shadows; `wavelet_*`, not `order`)",
+    },
+    ParamSpec {
+        name: "glossy_lobe",
+        kind: ParamKind::Choice(GLOSSY_LOBES),
+        default: "ggx",
+        doc: "transfer=glossy: how the transferred radiance is reflected. ggx: integrated against the whole \
+              BRDF (Lambert and GGX) in the view direction through SH BRDF tables (built once, per \
+              roughness level); phong: Sloan et al.'s radially symmetric lobes, Lambert about the normal \
+              plus a normalised Phong lobe about the mirror direction with the exponent equivalent to the \
+              roughness (2/α² − 2), zonal harmonics turned to their axes: no tables, an approximation of \
+              GGX",
     },
     ParamSpec {
         name: "bounces",
@@ -296,6 +311,8 @@ impl Prt {
         let count = order * order;
         let kind = p.choice("transfer");
         let glossy = kind == "glossy";
+        // Glossy transfer reflected through the BRDF tables (not Phong lobes).
+        let tabled = glossy && p.choice("glossy_lobe") == "ggx";
         let wavelets = kind == "wavelet";
         let interreflected = kind == "interreflected";
         let channels: u32 = if interreflected { 3 } else { 1 };
@@ -443,8 +460,8 @@ impl Prt {
         let shape = BufferBuilder::with_contents("prt shape", bytemuck::cast_slice(&[order, 0, 0, 0]))
             .usage(wgpu::BufferUsages::UNIFORM)
             .build(ctx)?;
-        let tables = glossy.then(|| BrdfTables::new(setup, glossy_table_shape(order), "prt")).transpose()?;
-        let rotation = glossy
+        let tables = tabled.then(|| BrdfTables::new(setup, glossy_table_shape(order), "prt")).transpose()?;
+        let rotation = tabled
             .then(|| {
                 BufferBuilder::with_contents(
                     "prt rotation x90",
@@ -461,11 +478,11 @@ impl Prt {
             compute::uniform_entry(2),
             read_only(3),
         ];
-        if !wavelets {
-            // The environment's SH (diffuse) or the Rx(90°) blocks (glossy).
+        if !wavelets && (!glossy || tabled) {
+            // The environment's SH (diffuse) or the Rx(90°) blocks (glossy through the tables).
             shade_entries.push(read_only(4));
         }
-        if glossy {
+        if tabled {
             shade_entries.push(read_only(5));
         }
         let shade_layout = compute::layout(ctx, "prt shade", &shade_entries);
@@ -495,7 +512,7 @@ impl Prt {
         let shade = compute::pipeline(
             ctx,
             "prt shade",
-            &shade_wgsl(kind),
+            &shade_wgsl(kind, p.choice("glossy_lobe")),
             shade_defines,
             "main",
             &layouts(&shade_layout),
@@ -648,15 +665,22 @@ fn transfer_wgsl(glossy: bool) -> String {
     format!("{}\n{passes}", include_str!("lattice.wgsl"))
 }
 
-/// The shading pass's shader for `transfer`: the pixel's triangle and point, then diffuse, glossy or
-/// wavelet environment light.
-fn shade_wgsl(transfer: &str) -> String {
+/// The shading pass's shader for `transfer` (and `glossy_lobe`): the pixel's triangle and point, then
+/// diffuse, glossy or wavelet environment light.
+fn shade_wgsl(transfer: &str, glossy_lobe: &str) -> String {
     let shade = include_str!("shade.wgsl");
-    match transfer {
-        "glossy" => {
-            format!("{shade}\n{LOOKUP_WGSL}\n{SHADING_WGSL}\n{}", include_str!("shade_glossy.wgsl"))
+    match (transfer, glossy_lobe) {
+        ("glossy", "phong") => {
+            let (glossy, phong) =
+                (include_str!("shade_glossy.wgsl"), include_str!("shade_glossy_phong.wgsl"));
+            format!("{shade}\n{glossy}\n{phong}")
         }
-        "wavelet" => format!("{shade}\n{}", include_str!("shade_wavelet.wgsl")),
+        ("glossy", _) => {
+            let (glossy, tables) =
+                (include_str!("shade_glossy.wgsl"), include_str!("shade_glossy_tables.wgsl"));
+            format!("{shade}\n{LOOKUP_WGSL}\n{SHADING_WGSL}\n{glossy}\n{tables}")
+        }
+        ("wavelet", _) => format!("{shade}\n{}", include_str!("shade_wavelet.wgsl")),
         _ => format!("{shade}\n{}", include_str!("shade_diffuse.wgsl")),
     }
 }
@@ -755,11 +779,17 @@ impl Technique for Prt {
             "prt: wavelet transfer is diffuse and shadowed (specular lobes get no environment light, \
              there are no interreflections); back faces get no environment light"
                 .into()
-        } else if self.tables.is_some() {
+        } else if matches!(self.transfer.passes, TransferPasses::Matrices { .. }) {
             format!(
                 "prt: glossy transfer carries the environment's light in {} SH bands, too few for sharp \
-                 reflections (low roughness is blurred); back faces get no environment light",
-                self.projection.as_ref().map_or(0, |p| p.coefficient_count().isqrt())
+                 reflections (low roughness is blurred){}; back faces get no environment light",
+                self.projection.as_ref().map_or(0, |p| p.coefficient_count().isqrt()),
+                if self.tables.is_some() {
+                    ""
+                } else {
+                    "; Phong lobes about the mirror direction stand in for GGX (no off-specular peak, \
+                     Fresnel taken at the view angle)"
+                }
             )
         } else {
             "prt: diffuse transfer (specular lobes get no environment light; transfer=glossy gives them \
