@@ -16,11 +16,15 @@
 //! Lights and emitters come from the direct pass as in `direct`.
 //!
 //! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
-//! corners, so shadows need tessellated meshes (as in the paper). Not built yet (issue 14): per-texel
-//! transfer, interreflected glossy transfer and rigid self-transfer of moving meshes.
+//! corners, so shadows need tessellated meshes (as in the paper). Moving meshes get self-transfer
+//! (`moving_transfer=self`, shadowed and unshadowed transfer): each rigid part's transfer of its own
+//! geometry, in its own space, lit by the environment turned into that space (self_transfer.wgsl).
+//! Not built yet (issue 14): per-texel transfer, interreflected glossy transfer, self-transfer for the
+//! other transfers.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
+use crate::gpu::scene::NO_INSTANCE;
 use crate::gpu::{BufferBuilder, GpuContext, Profiler};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
@@ -55,7 +59,7 @@ const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
 
 /// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
 /// own.
-pub const PARAMS: [ParamSpec; 17] = [
+pub const PARAMS: [ParamSpec; 18] = [
     DIRECT_PARAMS[0],
     DIRECT_PARAMS[1],
     DIRECT_PARAMS[2],
@@ -125,6 +129,17 @@ pub const PARAMS: [ParamSpec; 17] = [
         default: "512",
         doc: "transfer=wavelet: each vertex's largest Haar coefficients of transfer kept, weighted by their \
               support's area (4 bytes each: a 16-bit index and an f16 value; at most all 6 × resolution²)",
+    },
+    ParamSpec {
+        name: "moving_transfer",
+        kind: ParamKind::Choice(&["self", "recompute"]),
+        default: "self",
+        doc: "scenes with moving meshes, shadowed and unshadowed transfer. self: each rigid part's transfer \
+              of its own geometry alone, in its own space, precomputed once: a moving mesh shadows only \
+              itself and turns its transfer with it (the environment's SH is turned into its space when it \
+              or the environment moves), the static meshes shadow only each other; recompute: every \
+              vertex's transfer from the whole scene as posed, again in every frame in which a mesh moved \
+              (the other transfers always recompute)",
     },
     ParamSpec {
         name: "transfer_cache",
@@ -227,6 +242,8 @@ struct Transfer {
     bounces: u32,
     /// The geometry the vectors were computed for; `None` before the first frame.
     computed_for: Option<u64>,
+    /// Precomputations run (not loaded from the cache).
+    precomputations: u32,
     cache: Option<TransferCache>,
 }
 
@@ -293,9 +310,116 @@ struct Prt {
     shade_group: wgpu::BindGroup,
     samples: u32,
     max_workgroups: u32,
-    /// Whether some meshes may move (the GPU scene has instances): each move recomputes every
-    /// vertex's transfer, which the user is warned of.
+    /// Whether some meshes may move (the GPU scene has instances): without self-transfer each move
+    /// recomputes every vertex's transfer, which the user is warned of.
     moving_meshes: bool,
+    /// Transfer per rigid part (`moving_transfer=self`), lit by the environment turned into each part.
+    self_transfer: Option<SelfTransfer>,
+}
+
+/// What lights self-transfer (transfer.wgsl's SELF_TRANSFER): the environment's SH turned into every
+/// BVH instance's space (self_transfer.wgsl) whenever the environment or the instances' placement
+/// changes.
+struct SelfTransfer {
+    turn: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    /// Per instance, the band matrices of its turn (`hsh::sh_rotation`).
+    rotations: wgpu::Buffer,
+    instances: u32,
+    order: u32,
+    /// The geometry whose placement `instance_sh` was turned for.
+    turned_for: Option<u64>,
+    turns: u64,
+}
+
+impl SelfTransfer {
+    fn new(
+        setup: &TechniqueSetup,
+        projection: &EnvironmentProjection,
+        instance_sh: &wgpu::Buffer,
+        instances: u32,
+        order: u32,
+    ) -> Result<SelfTransfer, RenderError> {
+        let ctx = setup.ctx;
+        // Σ_{l<order} (2l+1)² floats of band matrices per instance.
+        let floats = u64::from(order * (4 * order * order - 1) / 3);
+        let rotations = BufferBuilder::new("prt instance turns", 4 * floats * u64::from(instances.max(1)))
+            .storage()
+            .copy()
+            .build(ctx)?;
+        let uniform =
+            BufferBuilder::with_contents("prt parts", bytemuck::cast_slice(&[order, instances, 0, 0]))
+                .usage(wgpu::BufferUsages::UNIFORM)
+                .build(ctx)?;
+        let layout = compute::layout(
+            ctx,
+            "prt self-transfer",
+            &[
+                compute::storage_buffer_entry(0, true),
+                compute::storage_buffer_entry(1, true),
+                compute::storage_buffer_entry(2, false),
+                compute::uniform_entry(3),
+            ],
+        );
+        let group = compute::bind_group(
+            ctx,
+            "prt self-transfer",
+            &layout,
+            &[
+                projection.coefficients.as_entire_binding(),
+                rotations.as_entire_binding(),
+                instance_sh.as_entire_binding(),
+                uniform.as_entire_binding(),
+            ],
+        );
+        let turn = compute::pipeline(
+            ctx,
+            "prt self-transfer",
+            include_str!("self_transfer.wgsl"),
+            Defines::new(),
+            "turn_into_instances",
+            &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
+        )?;
+        Ok(SelfTransfer { turn, group, rotations, instances, order, turned_for: None, turns: 0 })
+    }
+
+    /// Turns the environment's SH into every instance's space unless current.
+    fn turn(
+        &mut self,
+        fc: &FrameContext,
+        profiler: &mut Profiler,
+        new_environment: bool,
+        max_workgroups: u32,
+    ) -> Result<(), RenderError> {
+        let geometry = fc.gpu_scene.geometry_version;
+        if !new_environment && self.turned_for == Some(geometry) {
+            return Ok(());
+        }
+        let mut floats = Vec::new();
+        for m in fc.gpu_scene.instance_world_to_object() {
+            // Rigid motion with uniform scale: the world-to-object map over its scale is a rotation
+            // (a reflection too, for a mirrored mesh, which sh_rotation takes as well).
+            let scale = m.determinant().abs().cbrt();
+            let r = if scale > 0.0 && scale.is_finite() { m / scale } else { glam::Mat3::IDENTITY };
+            floats.extend(crate::hsh::sh_rotation(self.order as usize, r.as_dmat3()).bands_f32());
+        }
+        fc.ctx.queue.write_buffer(&self.rotations, 0, bytemuck::cast_slice(&floats));
+        let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
+        let [x, y, _] = workgroups_for(self.instances * self.order * self.order, WORKGROUP, max_workgroups);
+        profiler.pass(fc.ctx, "environment into moving meshes", |encoder| {
+            let mut pass = crate::gpu::dispatch::compute_pass(
+                encoder,
+                "environment into moving meshes",
+                &self.turn,
+                &groups,
+            );
+            pass.set_bind_group(2, &self.group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        })?;
+        self.turned_for = Some(geometry);
+        self.turns += 1;
+        Ok(())
+    }
 }
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -335,6 +459,13 @@ impl Prt {
         let vertices = u32::try_from(setup.scene.vertex_count())
             .map_err(|_| RenderError::InvalidSettings("prt: the scene has more than 2³² vertices".into()))?;
 
+        // Transfer per rigid part (transfer.wgsl's SELF_TRANSFER) when meshes may move.
+        let parts = (matches!(kind, "shadowed" | "unshadowed") && p.choice("moving_transfer") == "self")
+            .then(|| setup.gpu_scene.bvh_parts(vertices as usize))
+            .flatten();
+        let instances =
+            if parts.is_some() { setup.gpu_scene.instance_world_to_object().len() as u32 } else { 0 };
+
         // The environment is this technique's: the direct pass adds lights and emitters only.
         let (direct, direct_target) = DirectLighting::without_environment(setup, "prt")?;
         let projection = (!wavelets)
@@ -358,7 +489,20 @@ impl Prt {
             .u32("TRANSFER_SAMPLES", samples)
             .u32("CHANNELS", channels)
             .u32("COEFFICIENTS", count)
-            .bool("SHADOWED", kind != "unshadowed");
+            .bool("SHADOWED", kind != "unshadowed")
+            .bool("SELF_TRANSFER", parts.is_some())
+            .u32("NO_INSTANCE", NO_INSTANCE)
+            .u32("STATIC_ROOT", parts.as_ref().and_then(|p| p.static_root).unwrap_or(0));
+        let read_only_words = |label, words: &[u32]| {
+            BufferBuilder::with_contents(label, bytemuck::cast_slice(words))
+                .usage(wgpu::BufferUsages::STORAGE)
+                .build(ctx)
+                .map_err(too_large)
+        };
+        let vertex_instances = match &parts {
+            Some(parts) => read_only_words("prt vertex instances", &parts.vertex_instances)?,
+            None => read_only_words("prt vertex instances", &[NO_INSTANCE])?,
+        };
         let layouts = |own| [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, own];
 
         let batch = if glossy { GLOSSY_BATCH } else { BATCH };
@@ -373,6 +517,7 @@ impl Prt {
                 batches.entry(1),
                 compute::storage_buffer_entry(2, true),
                 compute::storage_buffer_entry(3, false),
+                compute::storage_buffer_entry(4, true),
             ],
         );
         let transfer_group = |a: &wgpu::Buffer, b: &wgpu::Buffer| {
@@ -385,6 +530,7 @@ impl Prt {
                     batches.resource(),
                     a.as_entire_binding(),
                     b.as_entire_binding(),
+                    vertex_instances.as_entire_binding(),
                 ],
             )
         };
@@ -437,7 +583,7 @@ impl Prt {
             } else {
                 crate::shaders::compose("prt transfer", &transfer_source, &defines)?
             };
-            let settings = [
+            let mut settings = vec![
                 order,
                 samples,
                 channels,
@@ -445,6 +591,14 @@ impl Prt {
                 wavelet_settings.resolution,
                 wavelet_settings.transfer_terms,
             ];
+            if let Some(parts) = &parts {
+                // Which vertices are in which part, and the space each instance's transfer is in (the
+                // one its geometry was uploaded in, which the setup's placement maps to).
+                settings.extend(&parts.vertex_instances);
+                for m in setup.gpu_scene.instance_world_to_object() {
+                    settings.extend(m.to_cols_array().map(f32::to_bits));
+                }
+            }
             Ok(TransferCache {
                 disk: crate::cache::DiskCache::new(crate::cache::precomputed_dir(), "prt-transfer"),
                 key: transfer_key(setup.scene, &composed, &settings),
@@ -471,6 +625,13 @@ impl Prt {
                 .build(ctx)
             })
             .transpose()?;
+        let instance_sh = storage("prt instance sh", u64::from(instances.max(1)) * u64::from(count) * 16)?;
+        let self_transfer = match (&parts, &projection) {
+            (Some(_), Some(projection)) => {
+                Some(SelfTransfer::new(setup, projection, &instance_sh, instances, order)?)
+            }
+            _ => None,
+        };
         let read_only = |b: u32| compute::storage_buffer_entry(b, true);
         let mut shade_entries = vec![
             compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
@@ -484,6 +645,11 @@ impl Prt {
         }
         if tabled {
             shade_entries.push(read_only(5));
+        }
+        let vectors = !glossy && !wavelets;
+        if vectors {
+            // Self-transfer's vertex instances and the environment turned into each instance.
+            shade_entries.extend([read_only(5), read_only(6)]);
         }
         let shade_layout = compute::layout(ctx, "prt shade", &shade_entries);
         let (direct_view, output_view) =
@@ -499,7 +665,11 @@ impl Prt {
             },
         ];
         if let (TransferPasses::Vectors { .. }, Some(projection)) = (&passes, &projection) {
-            shade_resources.push(projection.coefficients.as_entire_binding());
+            shade_resources.extend([
+                projection.coefficients.as_entire_binding(),
+                vertex_instances.as_entire_binding(),
+                instance_sh.as_entire_binding(),
+            ]);
         }
         if let (Some(rotation), Some(tables)) = (&rotation, &tables) {
             shade_resources.extend([rotation.as_entire_binding(), tables.buffer.as_entire_binding()]);
@@ -530,6 +700,7 @@ impl Prt {
                 coefficients: count,
                 bounces,
                 computed_for: None,
+                precomputations: 0,
                 cache,
             },
             tables,
@@ -539,6 +710,7 @@ impl Prt {
             samples,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
             moving_meshes: setup.gpu_scene.has_instances(),
+            self_transfer,
         })
     }
 
@@ -560,12 +732,14 @@ impl Prt {
     /// cache for the geometry the technique was created for; true when the transfer is new.
     fn precompute(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<bool, RenderError> {
         let geometry = fc.gpu_scene.geometry_version;
+        // Self-transfer is of each part in its own space: true however the parts are placed.
+        let per_part = self.self_transfer.is_some();
         let t = &mut self.transfer;
-        if t.computed_for == Some(geometry) {
+        if t.computed_for == Some(geometry) || (per_part && t.computed_for.is_some()) {
             return Ok(false);
         }
         t.computed_for = Some(geometry);
-        if let Some(cache) = t.cache.as_mut().filter(|c| c.geometry == geometry) {
+        if let Some(cache) = t.cache.as_mut().filter(|c| per_part || c.geometry == geometry) {
             if let Some(bytes) = cache.disk.load(cache.key, t.buffer.size() as usize) {
                 fc.ctx.queue.write_buffer(&t.buffer, 0, &bytes);
                 cache.loads += 1;
@@ -573,6 +747,7 @@ impl Prt {
             }
             cache.store_pending = true;
         }
+        t.precomputations += 1;
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         let max = self.max_workgroups;
         let [x, y, _] = workgroups_for(t.vertices, WORKGROUP, max);
@@ -694,6 +869,9 @@ impl Technique for Prt {
             None => false,
         };
         self.lit &= !new_transfer && !new_environment;
+        if let Some(parts) = self.self_transfer.as_mut() {
+            parts.turn(fc, profiler, new_environment, self.max_workgroups)?;
+        }
         if let TransferPasses::Wavelets(w) = &mut self.transfer.passes {
             if new_transfer {
                 w.invalidate();
@@ -741,6 +919,7 @@ impl Technique for Prt {
             ("transfer_cache_loads".to_string(), cache_count(|c| c.loads)),
             ("transfer_cache_stores".to_string(), cache_count(|c| c.stores)),
             ("transfer_vertices".to_string(), f64::from(self.transfer.vertices)),
+            ("transfer_precomputations".to_string(), f64::from(self.transfer.precomputations)),
             ("transfer_floats_per_vertex".to_string(), f64::from(self.transfer.floats_per_vertex)),
             ("transfer_bytes".to_string(), self.transfer.buffer.size() as f64),
             (
@@ -766,6 +945,10 @@ impl Technique for Prt {
         }
         if let Some(tables) = &self.tables {
             counters.insert("brdf_table_bytes".to_string(), tables.shape.bytes() as f64);
+        }
+        if let Some(parts) = &self.self_transfer {
+            counters.insert("self_transfer_instances".to_string(), f64::from(parts.instances));
+            counters.insert("self_transfer_turns".to_string(), parts.turns as f64);
         }
         if let Some(projection) = &self.projection {
             counters.extend(projection.counters());
@@ -799,7 +982,14 @@ impl Technique for Prt {
         if let Some(e) = self.transfer.cache.as_ref().and_then(|c| c.error.as_ref()) {
             warnings.push(format!("prt: the transfer was not cached ({e})"));
         }
-        if self.moving_meshes {
+        if self.self_transfer.is_some() {
+            warnings.push(
+                "prt: the scene has moving meshes; their transfer is self-transfer (moving_transfer=self): \
+                 each moving mesh shadows only itself, the static meshes only each other, and no shadow \
+                 passes between a moving mesh and the rest"
+                    .into(),
+            );
+        } else if self.moving_meshes {
             warnings.push(
                 "prt: the scene has moving meshes; every frame in which one moves recomputes the transfer of \
                  every vertex (precomputed transfer assumes still geometry)"

@@ -12,6 +12,12 @@
 // ρ_q the hit's diffuse reflectance (RGB: interreflected transfer has CHANNELS = 3 per coefficient,
 // the others 1). Back faces (hit against their normals) pass nothing on: transfer is for the side the
 // normals point to. Layout: transfer[(vertex · order² + k) · CHANNELS + channel].
+//
+// SELF_TRANSFER (scenes with moving meshes, shadowed and unshadowed transfer): every vertex's transfer
+// is that of its rigid part alone, in the part's own space: a moving mesh's vertices see only their own
+// mesh (its instance's bottom level, in the space it was uploaded in), the static meshes' see only the
+// static meshes (in world space). Such transfer stays true however the part moves, turned with it
+// (shade_diffuse.wgsl lights it with the environment turned into the part's space).
 
 #import common/scene.wgsl
 #import common/hsh.wgsl
@@ -27,6 +33,41 @@ struct Batch {
 // Interreflection: the previous bounce's transfer increment and this bounce's (CHANNELS = 3 each).
 @group(2) @binding(2) var<storage, read> previous_bounce: array<f32>;
 @group(2) @binding(3) var<storage, read_write> this_bounce: array<f32>;
+// SELF_TRANSFER: per vertex, its BVH instance, or NO_INSTANCE for the static meshes (GpuScene::bvh_parts).
+@group(2) @binding(4) var<storage, read> vertex_instances: array<u32>;
+
+// Where a vertex's transfer rays start, about which normal, and the part of the BVH they see.
+struct TransferFrame {
+    origin: vec3f,
+    normal: vec3f,
+    // Node reference of the part's root (0: the whole scene).
+    root: u32,
+}
+
+fn transfer_frame(vertex: u32) -> TransferFrame {
+    let v = vertices[vertex];
+    let n = vertex_normal(v);
+    let origin = offset_origin(v.position, n);
+    if !SELF_TRANSFER {
+        return TransferFrame(origin, n, 0u);
+    }
+    let instance = vertex_instances[vertex];
+    if instance == NO_INSTANCE {
+        return TransferFrame(origin, n, STATIC_ROOT);
+    }
+    // Rigid motion (and uniform scale) maps normals as directions.
+    let part = bvh_instances[instance];
+    return TransferFrame(
+        bvh_affine(part, origin, 1.0),
+        normalize(bvh_affine(part, n, 0.0)),
+        part.root << 3u,
+    );
+}
+
+fn transfer_occluded(f: TransferFrame, d: vec3f) -> bool {
+    let ray = Ray(f.origin, d);
+    return trace_any_from(ray, bvh_ray(ray), f.root, 0.0, FLT_MAX);
+}
 
 const BATCH: u32 = 32u;
 // Sample s of the vertex's cosine-distributed directions (world space).
@@ -41,9 +82,8 @@ fn accumulate(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups)
     if vertex >= VERTEX_COUNT {
         return;
     }
-    let v = vertices[vertex];
-    let n = vertex_normal(v);
-    let origin = offset_origin(v.position, n);
+    let f = transfer_frame(vertex);
+    let n = f.normal;
     var visible = 0u;
     for (var s = 0u; s < BATCH; s++) {
         let sample = batch.first_sample + s;
@@ -51,7 +91,7 @@ fn accumulate(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups)
             break;
         }
         let d = transfer_direction(vertex, sample, n);
-        if !SHADOWED || !trace_any(Ray(origin, d), 0.0, FLT_MAX) {
+        if !SHADOWED || !transfer_occluded(f, d) {
             visible |= 1u << s;
         }
     }
