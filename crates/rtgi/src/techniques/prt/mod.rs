@@ -16,11 +16,12 @@
 //! Lights and emitters come from the direct pass as in `direct`.
 //!
 //! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
-//! corners, so shadows need tessellated meshes (as in the paper). Moving meshes get self-transfer
+//! corners, so shadows need tessellated meshes (as in the paper), or per-texel transfer
+//! (`texels_per_edge`: every triangle's own patch of texels, points.wgsl). Moving meshes get self-transfer
 //! (`moving_transfer=self`, shadowed and unshadowed transfer): each rigid part's transfer of its own
 //! geometry, in its own space, lit by the environment turned into that space (self_transfer.wgsl).
-//! Not built yet (issue 14): per-texel transfer, interreflected glossy transfer, self-transfer for the
-//! other transfers.
+//! Not built yet (issue 14): a UV-unwrapped lightmap atlas, interreflected glossy transfer,
+//! self-transfer for the other transfers.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
@@ -54,12 +55,15 @@ pub const GLOSSY_LOBES: &[&str] = &["ggx", "phong"];
 /// order²(order² + 1)/2 floats per vertex (666 at order 6).
 const MAX_GLOSSY_ORDER: u32 = 6;
 
+/// The finest per-triangle texel patches (`texels_per_edge`).
+const MAX_TEXELS_PER_EDGE: u32 = 32;
+
 /// The SH orders transfer may have: the shared harmonics (common/hsh.wgsl) go to 10.
 const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
 
 /// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
 /// own.
-pub const PARAMS: [ParamSpec; 18] = [
+pub const PARAMS: [ParamSpec; 19] = [
     DIRECT_PARAMS[0],
     DIRECT_PARAMS[1],
     DIRECT_PARAMS[2],
@@ -131,6 +135,15 @@ pub const PARAMS: [ParamSpec; 18] = [
               support's area (4 bytes each: a 16-bit index and an f16 value; at most all 6 × resolution²)",
     },
     ParamSpec {
+        name: "texels_per_edge",
+        kind: ParamKind::Int { min: 0, max: MAX_TEXELS_PER_EDGE as i64 },
+        default: "0",
+        doc: "0: transfer per vertex; R > 0: per texel of every triangle's own patch, at the (R + 1)(R + 2)/2 \
+              points of its barycentric lattice, interpolated per pixel within the lattice's cells \
+              (transfer R times finer than the mesh without a UV unwrap; that many more points to \
+              precompute and keep; not with transfer=wavelet)",
+    },
+    ParamSpec {
         name: "moving_transfer",
         kind: ParamKind::Choice(&["self", "recompute"]),
         default: "self",
@@ -172,6 +185,9 @@ fn validate(p: &ParamValues) -> Result<(), String> {
              workgroup memory",
             p.int("order")
         ));
+    }
+    if p.choice("transfer") == "wavelet" && p.int("texels_per_edge") > 0 {
+        return Err("texels_per_edge is for SH transfer: wavelet transfer is per vertex".into());
     }
     let resolution = p.int("wavelet_resolution");
     if p.choice("transfer") == "wavelet" && !(resolution as u32).is_power_of_two() {
@@ -234,6 +250,8 @@ struct Transfer {
     passes: TransferPasses,
     batches: DispatchSlots,
     vertices: u32,
+    /// The points transfer is kept at (points.wgsl): `vertices`, or the triangles' texels.
+    points: u32,
     /// Floats per vertex: order² coefficients × colour channels, a matrix's upper triangle, or the kept
     /// wavelet terms (a packed u32 each).
     floats_per_vertex: u32,
@@ -458,6 +476,19 @@ impl Prt {
         };
         let vertices = u32::try_from(setup.scene.vertex_count())
             .map_err(|_| RenderError::InvalidSettings("prt: the scene has more than 2³² vertices".into()))?;
+        // The points transfer is kept at (points.wgsl): the vertices, or every triangle's texel patch.
+        let texels = p.int("texels_per_edge") as u32;
+        let points = if texels == 0 {
+            vertices
+        } else {
+            let patch = u64::from((texels + 1) * (texels + 2) / 2);
+            u32::try_from(setup.scene.triangle_count() as u64 * patch).map_err(|_| {
+                RenderError::InvalidSettings(format!(
+                    "prt: {} triangles × {patch} texels per patch is more than 2³² points; lower texels_per_edge",
+                    setup.scene.triangle_count()
+                ))
+            })?
+        };
 
         // Transfer per rigid part (transfer.wgsl's SELF_TRANSFER) when meshes may move.
         let parts = (matches!(kind, "shadowed" | "unshadowed") && p.choice("moving_transfer") == "self")
@@ -472,11 +503,11 @@ impl Prt {
             .then(|| EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32))
             .transpose()?;
 
-        let bytes = u64::from(vertices.max(1)) * u64::from(floats_per_vertex) * 4;
+        let bytes = u64::from(points.max(1)) * u64::from(floats_per_vertex) * 4;
         let lower = if wavelets { "wavelet_transfer_terms" } else { "order" };
         let too_large = |e| {
             RenderError::InvalidSettings(format!(
-                "prt: {e}; lower {lower} ({floats_per_vertex} words of transfer per vertex)"
+                "prt: {e}; lower {lower} ({floats_per_vertex} words of transfer per point)"
             ))
         };
         let storage =
@@ -485,7 +516,8 @@ impl Prt {
         let defines = setup
             .gpu_scene
             .bvh_defines(Defines::new())
-            .u32("VERTEX_COUNT", vertices)
+            .u32("POINT_COUNT", points)
+            .u32("TEXELS_PER_EDGE", texels)
             .u32("TRANSFER_SAMPLES", samples)
             .u32("CHANNELS", channels)
             .u32("COEFFICIENTS", count)
@@ -547,7 +579,7 @@ impl Prt {
         };
         let passes = if let Some(projection) = projection.as_ref().filter(|_| glossy) {
             let transferred =
-                storage("prt transferred radiance", u64::from(vertices.max(1)) * u64::from(count) * 16)?;
+                storage("prt transferred radiance", u64::from(points.max(1)) * u64::from(count) * 16)?;
             TransferPasses::Matrices {
                 accumulate: transfer_pipeline("accumulate_matrix")?,
                 lighting: transfer_pipeline("transfer_lighting")?,
@@ -590,6 +622,7 @@ impl Prt {
                 bounces,
                 wavelet_settings.resolution,
                 wavelet_settings.transfer_terms,
+                texels,
             ];
             if let Some(parts) = &parts {
                 // Which vertices are in which part, and the space each instance's transfer is in (the
@@ -696,6 +729,7 @@ impl Prt {
                 passes,
                 batches,
                 vertices,
+                points,
                 floats_per_vertex,
                 coefficients: count,
                 bounces,
@@ -750,8 +784,8 @@ impl Prt {
         t.precomputations += 1;
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         let max = self.max_workgroups;
-        let [x, y, _] = workgroups_for(t.vertices, WORKGROUP, max);
-        let [fx, fy, _] = workgroups_for(t.vertices * t.floats_per_vertex, WORKGROUP, max);
+        let [x, y, _] = workgroups_for(t.points, WORKGROUP, max);
+        let [fx, fy, _] = workgroups_for(t.points * t.floats_per_vertex, WORKGROUP, max);
         let batches = &t.batches;
         // A bounce's (or the matrices') directions, batch by batch, over `[x, y]` workgroups.
         let directions =
@@ -777,7 +811,7 @@ impl Prt {
                 }
                 TransferPasses::Matrices { accumulate, group, .. } => {
                     // A workgroup per vertex.
-                    let [gx, gy, _] = workgroups_for(t.vertices * GLOSSY_BATCH, GLOSSY_BATCH, max);
+                    let [gx, gy, _] = workgroups_for(t.points * GLOSSY_BATCH, GLOSSY_BATCH, max);
                     directions(encoder, accumulate, group, [gx, gy]);
                 }
                 TransferPasses::Vectors {
@@ -820,7 +854,7 @@ impl Prt {
         if self.lit {
             return Ok(());
         }
-        let [x, y, _] = workgroups_for(t.vertices * t.coefficients, WORKGROUP, self.max_workgroups);
+        let [x, y, _] = workgroups_for(t.points * t.coefficients, WORKGROUP, self.max_workgroups);
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         profiler.pass(fc.ctx, "transferred radiance", |encoder| {
             let mut pass =
@@ -837,13 +871,13 @@ impl Prt {
 /// The transfer passes' shader: the direction lattice, then the vectors' or the matrices' passes.
 fn transfer_wgsl(glossy: bool) -> String {
     let passes = if glossy { include_str!("glossy.wgsl") } else { include_str!("transfer.wgsl") };
-    format!("{}\n{passes}", include_str!("lattice.wgsl"))
+    format!("{}\n{}\n{passes}", include_str!("lattice.wgsl"), include_str!("points.wgsl"))
 }
 
 /// The shading pass's shader for `transfer` (and `glossy_lobe`): the pixel's triangle and point, then
 /// diffuse, glossy or wavelet environment light.
 fn shade_wgsl(transfer: &str, glossy_lobe: &str) -> String {
-    let shade = include_str!("shade.wgsl");
+    let shade = format!("{}\n{}", include_str!("points.wgsl"), include_str!("shade.wgsl"));
     match (transfer, glossy_lobe) {
         ("glossy", "phong") => {
             let (glossy, phong) =
@@ -919,6 +953,7 @@ impl Technique for Prt {
             ("transfer_cache_loads".to_string(), cache_count(|c| c.loads)),
             ("transfer_cache_stores".to_string(), cache_count(|c| c.stores)),
             ("transfer_vertices".to_string(), f64::from(self.transfer.vertices)),
+            ("transfer_points".to_string(), f64::from(self.transfer.points)),
             ("transfer_precomputations".to_string(), f64::from(self.transfer.precomputations)),
             ("transfer_floats_per_vertex".to_string(), f64::from(self.transfer.floats_per_vertex)),
             ("transfer_bytes".to_string(), self.transfer.buffer.size() as f64),
@@ -927,7 +962,7 @@ impl Technique for Prt {
                 match &self.transfer.passes {
                     TransferPasses::Wavelets(w) => w.rays(),
                     _ => {
-                        f64::from(self.transfer.vertices)
+                        f64::from(self.transfer.points)
                             * f64::from(self.samples)
                             * f64::from(1 + self.transfer.bounces)
                     }

@@ -35,7 +35,7 @@ fn transferred_irradiance(p: TrianglePoint) -> vec3f {
     // A triangle's vertices are all of one mesh.
     var instance = NO_INSTANCE;
     if SELF_TRANSFER {
-        instance = vertex_instances[p.vertices.x];
+        instance = vertex_instances[indices[p.triangle * 3u]];
     }
     var sum = vec3f(0.0);
     for (var k = 0u; k < count; k++) {
