@@ -8,7 +8,7 @@
 Runs `rtgi bench benches/prt-moving.toml --images` and prints each cell's time per frame, its ratio to
 direct's, its shading pass, its per-frame precomputation (recompute) or turn of the sky into the knot's
 space (self-transfer), and FLIP and relMSE against the path-traced full-GI reference of the first measured
-frame's pose. Options: --suite FILE, --size WxH, --doc NAME, --allow-dirty.
+frame's pose (per scene: the second entry's reference is the environment's direct light alone). Options: --suite FILE, --size WxH, --doc NAME, --allow-dirty.
 """
 import sys
 
@@ -38,7 +38,7 @@ def main():
         "one warm-up frame (prt precomputes its transfer there, and projects the sky), then "
         f"{suite.get('frames', 4)} timed frames at the scene times {suite['scenes'][0].get('times')} s: the "
         "first at the warm-up's pose, each of the others with the knot further turned. The first is "
-        f"compared with the path-traced full-GI reference at its pose (spp: {ref_spp}). `prt self-transfer` "
+        f"compared with the path-traced reference at its pose (spp: {ref_spp}). `prt self-transfer` "
         "(moving_transfer=self) keeps each rigid part's transfer of its own geometry in its own space and "
         "turns the sky's SH into the knot's space when it moves (turn: that pass; the band matrices are "
         "built on the CPU and are not in it); the knot then casts no shadow on the ground and the pillars "
@@ -46,15 +46,25 @@ def main():
         "in which the knot moved (precomputation: that pass's time per frame, three of the four frames). "
         "ms/frame: the whole frame's GPU time; × direct: over direct's"
         + (". On lavapipe: compare cells with each other, not with GPU figures." if cpu else "."), "",
-        "| cell | ms/frame | × direct | shading ms | precomputation ms/frame | turn ms | FLIP | relMSE |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for c in cells:
-        ratio = c["frame_ms"] / direct[0] if direct else None
-        lines.append(f"| {m.label(c)} | {c['frame_ms']:.2f} | {optional(ratio, 2)} | "
-                     f"{optional(m.pass_ms(c, SHADING), 2)} | {optional(m.pass_ms(c, PRECOMPUTE), 1)} | "
-                     f"{optional(m.pass_ms(c, TURN), 3)} | {c['error']['flip']:.4f} | "
-                     f"{c['error']['rel_mse']:.5f} |")
+    for scene in dict.fromkeys(c["scene"] for c in cells):
+        lines += [f"## {scene}", ""]
+        reference = next((e.get("set") for e in suite.get("scenes", []) if e["scene"] == scene), None)
+        if reference:
+            settings = ", ".join(f"{k} = {v}" for k, v in reference.items())
+            lines += [f"This scene's reference is the path tracer with {settings} (not full GI): the "
+                      "environment's direct light, what shadowed transfer computes.", ""]
+        lines += [
+            "| cell | ms/frame | × direct | shading ms | precomputation ms/frame | turn ms | FLIP | relMSE |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for c in (c for c in cells if c["scene"] == scene):
+            ratio = c["frame_ms"] / direct[0] if direct else None
+            lines.append(f"| {m.label(c)} | {c['frame_ms']:.2f} | {optional(ratio, 2)} | "
+                         f"{optional(m.pass_ms(c, SHADING), 2)} | {optional(m.pass_ms(c, PRECOMPUTE), 1)} | "
+                         f"{optional(m.pass_ms(c, TURN), 3)} | {c['error']['flip']:.4f} | "
+                         f"{c['error']['rel_mse']:.5f} |")
+        lines.append("")
     m.write_doc(SCRIPT, run.args.doc, lines)
 
 
