@@ -479,6 +479,8 @@ warmup = 5
                 "photon-irradiance-cache.toml",
                 "primary.toml",
                 "prt-hard-shadows.toml",
+                "prt-moving.toml",
+                "prt-texels.toml",
                 "prt-turning.toml",
                 "prt.toml",
                 "quick.toml",

@@ -577,6 +577,18 @@ fn pack_geometry(scene: &Scene, vertex_count: usize, triangle_count: usize) -> G
     Geometry { vertices, indices, mesh_ranges, vertex_bases }
 }
 
+/// [`BvhParts::vertex_instances`] of a vertex of a static mesh.
+pub const NO_INSTANCE: u32 = u32::MAX;
+
+/// The parts of a two-level BVH (see [`crate::gpu::bvh::instances`]) as a technique that traces within
+/// one part sees them.
+pub struct BvhParts {
+    /// Per vertex, the instance (index into the BVH's instances) holding it, or [`NO_INSTANCE`].
+    pub vertex_instances: Vec<u32>,
+    /// The node reference of the static meshes' bottom level, if any.
+    pub static_root: Option<u32>,
+}
+
 /// A fresh [`GpuScene::geometry_version`]: unique across uploads and in-place moves, so state rendered
 /// from other geometry (shadow maps, RSMs) is never mistaken for current.
 fn next_geometry_version() -> u64 {
@@ -966,6 +978,35 @@ impl GpuScene {
     /// Whether the BVH has two levels (meshes that may move).
     pub fn has_instances(&self) -> bool {
         self.moving.is_some()
+    }
+
+    /// The parts of the two-level BVH a vertex's rays may be limited to, for transfer precomputed per
+    /// rigid part (prt's self-transfer), for the `vertex_count` vertices of the uploaded scene; `None`
+    /// without moving meshes.
+    pub fn bvh_parts(&self, vertex_count: usize) -> Option<BvhParts> {
+        let moving = self.moving.as_ref()?;
+        let mut vertex_instances = vec![NO_INSTANCE; vertex_count];
+        for (instance, &m) in moving.top.instance_meshes.iter().enumerate() {
+            let start = moving.vertex_bases[m] as usize;
+            let end = moving.vertex_bases.get(m + 1).map_or(vertex_count, |&b| b as usize);
+            vertex_instances[start..end].fill(instance as u32);
+        }
+        Some(BvhParts { vertex_instances, static_root: moving.top.static_root() })
+    }
+
+    /// Per BVH instance, the linear part of its map from world space to the space its geometry was
+    /// uploaded in, as placed now (empty without moving meshes).
+    pub fn instance_world_to_object(&self) -> Vec<glam::Mat3> {
+        let Some(moving) = &self.moving else { return Vec::new() };
+        moving
+            .top
+            .instances
+            .iter()
+            .map(|i| {
+                let [x, y, z] = i.world_to_object;
+                glam::Mat3::from_cols_array(&[x[0], y[0], z[0], x[1], y[1], z[1], x[2], y[2], z[2]])
+            })
+            .collect()
     }
 
     /// `defines` plus the BVH variant this scene needs (`BVH_INSTANCES`, see `common/bvh.wgsl`): every

@@ -28,6 +28,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/direct_light_prediction.wgsl", include_str!("common/direct_light_prediction.wgsl")),
     ("common/sh.wgsl", include_str!("common/sh.wgsl")),
     ("common/hsh.wgsl", include_str!("common/hsh.wgsl")),
+    ("common/sh_lobes.wgsl", include_str!("common/sh_lobes.wgsl")),
     ("common/raster.wgsl", include_str!("common/raster.wgsl")),
     ("common/gbuffer.wgsl", include_str!("common/gbuffer.wgsl")),
     ("common/mesh_of_triangle.wgsl", include_str!("common/mesh_of_triangle.wgsl")),
@@ -189,6 +190,7 @@ mod tests {
             "common/direct_light_prediction.wgsl" => {
                 "fn predicted_light(i: u32) -> Light { return lights[i]; }\n"
             }
+            "common/sh_lobes.wgsl" => "fn incident_sh(k: u32) -> vec3f { return vec3f(f32(k)); }\n",
             "common/mesh_of_triangle.wgsl" => {
                 "@group(3) @binding(0) var<storage, read> mesh_starts: array<vec2u>;\n"
             }

@@ -138,6 +138,15 @@ impl InstancedBvh {
 }
 
 impl TopLevel {
+    /// The node reference of the static meshes' bottom level (`None` when every mesh may move): a
+    /// traversal started there sees the static meshes alone, in world space.
+    pub fn static_root(&self) -> Option<u32> {
+        self.leaves.iter().find_map(|leaf| match *leaf {
+            TopLeaf::Static { root, .. } => Some(node_ref(root, 0)),
+            TopLeaf::Instance { .. } => None,
+        })
+    }
+
     /// Places instance i by `object_to_world[i]` (the map from the geometry its bottom level was built
     /// over to where it is now) and rebuilds the top level. An instance whose map cannot be inverted
     /// (scaled to nothing) is left out: nothing can hit it.

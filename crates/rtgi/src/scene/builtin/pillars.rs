@@ -24,8 +24,19 @@ pub const PARAMS: &[ParamSpec] = &[
               all-frequency case SH transfer blurs)",
     },
     motion::ENV_ROTATION_PARAM,
-    motion::ENVIRONMENT_ANIMATE_PARAM,
+    motion::animate_param(
+        &["none", "environment", "knot"],
+        "environment: the environment turns once about +Y (12 s, LINEAR); knot: the knot, raised to 1.35 \
+         m, tumbles once about a horizontal axis through its centre (8 s, LINEAR), so its self-shadowing \
+         changes (a rigid moving mesh for PRT's self-transfer)",
+    ),
 ];
+
+/// Seconds per tumble of `animate=knot`, and the knot's centre height then: it reaches 1.14 m from its
+/// centre (core radius and swing, plus the tube), so turning about any axis through a centre 1.35 m up
+/// it clears the ground, and the ring's inner side 2.08 m away.
+const KNOT_TUMBLE_SECONDS: f32 = 8.0;
+const TUMBLE_HEIGHT: f32 = 1.35;
 
 /// Pillars in the ring, its radius, and each pillar's radius and height (metres).
 const PILLARS: u32 = 8;
@@ -163,7 +174,8 @@ pub fn build(params: &ParamValues) -> Scene {
         pillars.cylinder(at, PILLAR_RADIUS, PILLAR_HEIGHT, 24, true, 1.0);
     }
     let mut knot = MeshBuilder::new();
-    let centre = Vec3::new(0.0, KNOT_HEIGHT, 0.0);
+    let tumbling = params.choice("animate") == "knot";
+    let centre = Vec3::new(0.0, if tumbling { TUMBLE_HEIGHT } else { KNOT_HEIGHT }, 0.0);
     tube(&mut knot, centre, |t| knot_curve(centre, KNOT_RADIUS, KNOT_SWING, t), KNOT_TUBE, 240, 16);
 
     let mut scene = Scene {
@@ -186,5 +198,22 @@ pub fn build(params: &ParamValues) -> Scene {
         animation: None,
     };
     motion::turn_environment(&mut scene, params);
+    if tumbling {
+        let node = motion::add_root(
+            &mut scene,
+            "knot-tumble",
+            "knot",
+            crate::scene::animation::Trs { translation: centre, ..Default::default() },
+        );
+        let times: Vec<f32> = (0..=4).map(|k| KNOT_TUMBLE_SECONDS * k as f32 / 4.0).collect();
+        let axis = Vec3::new(1.0, 0.0, 0.5).normalize();
+        motion::keys(
+            &mut scene,
+            node,
+            crate::scene::animation::Property::Rotation,
+            motion::turns(Quat::IDENTITY, axis, &times, &[0.0, 90.0, 180.0, 270.0, 360.0]),
+        );
+        motion::bind_mesh(&mut scene, 2, node);
+    }
     scene
 }

@@ -395,11 +395,19 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
 
 // Whether anything is hit with tmin < t < tmax; returns at the first accepted hit.
 fn trace_any(ray: Ray, tmin: f32, tmax: f32) -> bool {
-    let world = bvh_ray(ray);
+    return trace_any_from(ray, bvh_ray(ray), 0u, tmin, tmax);
+}
+
+// trace_any within the part of the BVH under node reference `start`, `start_ray` being `ray` ready for
+// traversal in that part's space: the whole scene from the root (0, the world ray), or one bottom level
+// alone (the static meshes' in world space, or an instance's in its own space; see
+// GpuScene::bvh_parts), for transfer that sees a rigid part's own geometry only.
+fn trace_any_from(ray: Ray, start_ray: BvhRay, start: u32, tmin: f32, tmax: f32) -> bool {
+    let world = start_ray;
     var r = world;
     var instance_sp = 0u;
     var sp = 0u;
-    var current = 0u;
+    var current = start;
     var have_current = true;
     loop {
         if !have_current {

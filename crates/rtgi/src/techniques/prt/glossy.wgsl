@@ -1,4 +1,5 @@
-// Glossy transfer matrices per vertex (Sloan, Kautz & Snyder 2002 §6), precomputed through the shared
+// Glossy transfer matrices per point ("vertex" below: a vertex, or a texel of a triangle's patch,
+// points.wgsl; Sloan, Kautz & Snyder 2002 §6), precomputed through the shared
 // BVH: M_ij = ∫_H V(ω) Y_i(ω) Y_j(ω) dω over the hemisphere about the vertex normal, so that the
 // vertex's incident radiance with its self-shadowing, V·L, has the SH coefficients L'_i = Σ_j M_ij L_j
 // for an environment with coefficients L_j (projected to the order: the transferred radiance). Shading
@@ -31,9 +32,9 @@ const GLOSSY_BATCH: u32 = 64u;
 // The batch's harmonics, direction after direction (COEFFICIENTS = order²).
 var<workgroup> harmonics: array<f32, GLOSSY_BATCH * COEFFICIENTS>;
 
-// Sample s of the vertex's uniformly distributed directions (world space).
-fn glossy_direction(vertex: u32, s: u32, n: vec3f) -> vec3f {
-    return local_to_world(sample_cone(transfer_lattice(vertex, s), 0.0), n);
+// Sample s of a point's uniformly distributed directions (world space; `seed`: PointSurface::seed).
+fn glossy_direction(seed: u32, s: u32, n: vec3f) -> vec3f {
+    return local_to_world(sample_cone(transfer_lattice(seed, s), 0.0), n);
 }
 
 // A workgroup per vertex over the (x, y) spread of gpu::dispatch::workgroups_for.
@@ -48,17 +49,17 @@ fn accumulate_matrix(
     let sample = batch.first_sample + lane;
     var d = vec3f(0.0, 0.0, 1.0);
     var visible = false;
-    if vertex < VERTEX_COUNT && sample < TRANSFER_SAMPLES {
-        let v = vertices[vertex];
-        let n = vertex_normal(v);
-        d = glossy_direction(vertex, sample, n);
-        visible = !SHADOWED || !trace_any(Ray(offset_origin(v.position, n), d), 0.0, FLT_MAX);
+    if vertex < POINT_COUNT && sample < TRANSFER_SAMPLES {
+        let p = point_surface(vertex);
+        let n = p.normal;
+        d = glossy_direction(p.seed, sample, n);
+        visible = !SHADOWED || !trace_any(Ray(offset_origin(p.position, n), d), 0.0, FLT_MAX);
     }
     for (var k = 0u; k < count; k++) {
         harmonics[lane * count + k] = select(0.0, sh_one(k, d), visible);
     }
     workgroupBarrier();
-    if vertex >= VERTEX_COUNT {
+    if vertex >= POINT_COUNT {
         return;
     }
     let pairs = count * (count + 1u) / 2u;
@@ -87,7 +88,7 @@ fn accumulate_matrix(
 fn transfer_lighting(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let count = batch.order * batch.order;
     let element = id.x + id.y * groups.x * 64u;
-    if element >= VERTEX_COUNT * count {
+    if element >= POINT_COUNT * count {
         return;
     }
     let vertex = element / count;

@@ -10,16 +10,22 @@
 //! of its vertices' interpolated transfer with the environment's SH (shade_diffuse.wgsl); glossy
 //! transfer multiplies every vertex's matrix with the environment's SH when either changes, then
 //! integrates the interpolated result against the whole BRDF in the view direction through the SH
-//! BRDF tables (shade_glossy.wgsl). `transfer=wavelet` is all-frequency shadowed transfer in Haar
+//! BRDF tables (`glossy_lobe=ggx`, shade_glossy_tables.wgsl) or reflects it with Sloan et al.'s
+//! Lambert and Phong lobes (`glossy_lobe=phong`, shade_glossy_phong.wgsl). `transfer=wavelet` is all-frequency shadowed transfer in Haar
 //! wavelets over a cube map of the environment (Ng, Ramamoorthi & Hanrahan 2003; [`wavelet`]).
 //! Lights and emitters come from the direct pass as in `direct`.
 //!
 //! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
-//! corners, so shadows need tessellated meshes (as in the paper). Not built yet (issue 14): per-texel
-//! transfer, interreflected glossy transfer and rigid self-transfer of moving meshes.
+//! corners, so shadows need tessellated meshes (as in the paper), or per-texel transfer
+//! (`texels_per_edge`: every triangle's own patch of texels, points.wgsl). Moving meshes get self-transfer
+//! (`moving_transfer=self`, shadowed and unshadowed transfer): each rigid part's transfer of its own
+//! geometry, in its own space, lit by the environment turned into that space (self_transfer.wgsl).
+//! Not built yet (issue 14): a UV-unwrapped lightmap atlas, interreflected glossy transfer,
+//! self-transfer for the other transfers.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
+use crate::gpu::scene::NO_INSTANCE;
 use crate::gpu::{BufferBuilder, GpuContext, Profiler};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
@@ -41,17 +47,23 @@ use wavelet::{WaveletPasses, WaveletSettings};
 /// What the transfer vectors hold.
 pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected", "glossy", "wavelet"];
 
+/// How glossy transfer's radiance is reflected (`glossy_lobe`).
+pub const GLOSSY_LOBES: &[&str] = &["ggx", "phong"];
+
 /// The highest order of glossy transfer: a batch's harmonics (`GLOSSY_BATCH` × order² floats of
 /// glossy.wgsl) must fit the 16 KiB of workgroup memory every device has, and a matrix has
 /// order²(order² + 1)/2 floats per vertex (666 at order 6).
 const MAX_GLOSSY_ORDER: u32 = 6;
+
+/// The finest per-triangle texel patches (`texels_per_edge`).
+const MAX_TEXELS_PER_EDGE: u32 = 32;
 
 /// The SH orders transfer may have: the shared harmonics (common/hsh.wgsl) go to 10.
 const MAX_ORDER: i64 = crate::hsh::MAX_GPU_ORDER as i64;
 
 /// The direct pass's parameters without `env_samples` (the environment is this technique's), then its
 /// own.
-pub const PARAMS: [ParamSpec; 16] = [
+pub const PARAMS: [ParamSpec; 19] = [
     DIRECT_PARAMS[0],
     DIRECT_PARAMS[1],
     DIRECT_PARAMS[2],
@@ -70,6 +82,17 @@ pub const PARAMS: [ParamSpec; 16] = [
               radiance, shaded with the whole BRDF (diffuse and specular lobes; order ≤ 6, \
               order²(order² + 1)/2 floats per vertex); wavelet: shadowed transfer in Haar wavelets over \
               a cube map of the environment (all-frequency shadows; `wavelet_*`, not `order`)",
+    },
+    ParamSpec {
+        name: "glossy_lobe",
+        kind: ParamKind::Choice(GLOSSY_LOBES),
+        default: "ggx",
+        doc: "transfer=glossy: how the transferred radiance is reflected. ggx: integrated against the whole \
+              BRDF (Lambert and GGX) in the view direction through SH BRDF tables (built once, per \
+              roughness level); phong: Sloan et al.'s radially symmetric lobes, Lambert about the normal \
+              plus a normalised Phong lobe about the mirror direction with the exponent equivalent to the \
+              roughness (2/α² − 2), zonal harmonics turned to their axes: no tables, an approximation of \
+              GGX",
     },
     ParamSpec {
         name: "bounces",
@@ -112,6 +135,26 @@ pub const PARAMS: [ParamSpec; 16] = [
               support's area (4 bytes each: a 16-bit index and an f16 value; at most all 6 × resolution²)",
     },
     ParamSpec {
+        name: "texels_per_edge",
+        kind: ParamKind::Int { min: 0, max: MAX_TEXELS_PER_EDGE as i64 },
+        default: "0",
+        doc: "0: transfer per vertex; R > 0: per texel of every triangle's own patch, at the (R + 1)(R + 2)/2 \
+              points of its barycentric lattice, interpolated per pixel within the lattice's cells \
+              (transfer R times finer than the mesh without a UV unwrap; that many more points to \
+              precompute and keep; not with transfer=wavelet)",
+    },
+    ParamSpec {
+        name: "moving_transfer",
+        kind: ParamKind::Choice(&["self", "recompute"]),
+        default: "self",
+        doc: "scenes with moving meshes, shadowed and unshadowed transfer. self: each rigid part's transfer \
+              of its own geometry alone, in its own space, precomputed once: a moving mesh shadows only \
+              itself and turns its transfer with it (the environment's SH is turned into its space when it \
+              or the environment moves), the static meshes shadow only each other; recompute: every \
+              vertex's transfer from the whole scene as posed, again in every frame in which a mesh moved \
+              (the other transfers always recompute)",
+    },
+    ParamSpec {
         name: "transfer_cache",
         kind: ParamKind::Choice(&["on", "off"]),
         default: "on",
@@ -142,6 +185,9 @@ fn validate(p: &ParamValues) -> Result<(), String> {
              workgroup memory",
             p.int("order")
         ));
+    }
+    if p.choice("transfer") == "wavelet" && p.int("texels_per_edge") > 0 {
+        return Err("texels_per_edge is for SH transfer: wavelet transfer is per vertex".into());
     }
     let resolution = p.int("wavelet_resolution");
     if p.choice("transfer") == "wavelet" && !(resolution as u32).is_power_of_two() {
@@ -204,6 +250,8 @@ struct Transfer {
     passes: TransferPasses,
     batches: DispatchSlots,
     vertices: u32,
+    /// The points transfer is kept at (points.wgsl): `vertices`, or the triangles' texels.
+    points: u32,
     /// Floats per vertex: order² coefficients × colour channels, a matrix's upper triangle, or the kept
     /// wavelet terms (a packed u32 each).
     floats_per_vertex: u32,
@@ -212,6 +260,8 @@ struct Transfer {
     bounces: u32,
     /// The geometry the vectors were computed for; `None` before the first frame.
     computed_for: Option<u64>,
+    /// Precomputations run (not loaded from the cache).
+    precomputations: u32,
     cache: Option<TransferCache>,
 }
 
@@ -278,9 +328,116 @@ struct Prt {
     shade_group: wgpu::BindGroup,
     samples: u32,
     max_workgroups: u32,
-    /// Whether some meshes may move (the GPU scene has instances): each move recomputes every
-    /// vertex's transfer, which the user is warned of.
+    /// Whether some meshes may move (the GPU scene has instances): without self-transfer each move
+    /// recomputes every vertex's transfer, which the user is warned of.
     moving_meshes: bool,
+    /// Transfer per rigid part (`moving_transfer=self`), lit by the environment turned into each part.
+    self_transfer: Option<SelfTransfer>,
+}
+
+/// What lights self-transfer (transfer.wgsl's SELF_TRANSFER): the environment's SH turned into every
+/// BVH instance's space (self_transfer.wgsl) whenever the environment or the instances' placement
+/// changes.
+struct SelfTransfer {
+    turn: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    /// Per instance, the band matrices of its turn (`hsh::sh_rotation`).
+    rotations: wgpu::Buffer,
+    instances: u32,
+    order: u32,
+    /// The geometry whose placement `instance_sh` was turned for.
+    turned_for: Option<u64>,
+    turns: u64,
+}
+
+impl SelfTransfer {
+    fn new(
+        setup: &TechniqueSetup,
+        projection: &EnvironmentProjection,
+        instance_sh: &wgpu::Buffer,
+        instances: u32,
+        order: u32,
+    ) -> Result<SelfTransfer, RenderError> {
+        let ctx = setup.ctx;
+        // Σ_{l<order} (2l+1)² floats of band matrices per instance.
+        let floats = u64::from(order * (4 * order * order - 1) / 3);
+        let rotations = BufferBuilder::new("prt instance turns", 4 * floats * u64::from(instances.max(1)))
+            .storage()
+            .copy()
+            .build(ctx)?;
+        let uniform =
+            BufferBuilder::with_contents("prt parts", bytemuck::cast_slice(&[order, instances, 0, 0]))
+                .usage(wgpu::BufferUsages::UNIFORM)
+                .build(ctx)?;
+        let layout = compute::layout(
+            ctx,
+            "prt self-transfer",
+            &[
+                compute::storage_buffer_entry(0, true),
+                compute::storage_buffer_entry(1, true),
+                compute::storage_buffer_entry(2, false),
+                compute::uniform_entry(3),
+            ],
+        );
+        let group = compute::bind_group(
+            ctx,
+            "prt self-transfer",
+            &layout,
+            &[
+                projection.coefficients.as_entire_binding(),
+                rotations.as_entire_binding(),
+                instance_sh.as_entire_binding(),
+                uniform.as_entire_binding(),
+            ],
+        );
+        let turn = compute::pipeline(
+            ctx,
+            "prt self-transfer",
+            include_str!("self_transfer.wgsl"),
+            Defines::new(),
+            "turn_into_instances",
+            &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout],
+        )?;
+        Ok(SelfTransfer { turn, group, rotations, instances, order, turned_for: None, turns: 0 })
+    }
+
+    /// Turns the environment's SH into every instance's space unless current.
+    fn turn(
+        &mut self,
+        fc: &FrameContext,
+        profiler: &mut Profiler,
+        new_environment: bool,
+        max_workgroups: u32,
+    ) -> Result<(), RenderError> {
+        let geometry = fc.gpu_scene.geometry_version;
+        if !new_environment && self.turned_for == Some(geometry) {
+            return Ok(());
+        }
+        let mut floats = Vec::new();
+        for m in fc.gpu_scene.instance_world_to_object() {
+            // Rigid motion with uniform scale: the world-to-object map over its scale is a rotation
+            // (a reflection too, for a mirrored mesh, which sh_rotation takes as well).
+            let scale = m.determinant().abs().cbrt();
+            let r = if scale > 0.0 && scale.is_finite() { m / scale } else { glam::Mat3::IDENTITY };
+            floats.extend(crate::hsh::sh_rotation(self.order as usize, r.as_dmat3()).bands_f32());
+        }
+        fc.ctx.queue.write_buffer(&self.rotations, 0, bytemuck::cast_slice(&floats));
+        let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
+        let [x, y, _] = workgroups_for(self.instances * self.order * self.order, WORKGROUP, max_workgroups);
+        profiler.pass(fc.ctx, "environment into moving meshes", |encoder| {
+            let mut pass = crate::gpu::dispatch::compute_pass(
+                encoder,
+                "environment into moving meshes",
+                &self.turn,
+                &groups,
+            );
+            pass.set_bind_group(2, &self.group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        })?;
+        self.turned_for = Some(geometry);
+        self.turns += 1;
+        Ok(())
+    }
 }
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -296,6 +453,8 @@ impl Prt {
         let count = order * order;
         let kind = p.choice("transfer");
         let glossy = kind == "glossy";
+        // Glossy transfer reflected through the BRDF tables (not Phong lobes).
+        let tabled = glossy && p.choice("glossy_lobe") == "ggx";
         let wavelets = kind == "wavelet";
         let interreflected = kind == "interreflected";
         let channels: u32 = if interreflected { 3 } else { 1 };
@@ -317,6 +476,26 @@ impl Prt {
         };
         let vertices = u32::try_from(setup.scene.vertex_count())
             .map_err(|_| RenderError::InvalidSettings("prt: the scene has more than 2³² vertices".into()))?;
+        // The points transfer is kept at (points.wgsl): the vertices, or every triangle's texel patch.
+        let texels = p.int("texels_per_edge") as u32;
+        let points = if texels == 0 {
+            vertices
+        } else {
+            let patch = u64::from((texels + 1) * (texels + 2) / 2);
+            u32::try_from(setup.scene.triangle_count() as u64 * patch).map_err(|_| {
+                RenderError::InvalidSettings(format!(
+                    "prt: {} triangles × {patch} texels per patch is more than 2³² points; lower texels_per_edge",
+                    setup.scene.triangle_count()
+                ))
+            })?
+        };
+
+        // Transfer per rigid part (transfer.wgsl's SELF_TRANSFER) when meshes may move.
+        let parts = (matches!(kind, "shadowed" | "unshadowed") && p.choice("moving_transfer") == "self")
+            .then(|| setup.gpu_scene.bvh_parts(vertices as usize))
+            .flatten();
+        let instances =
+            if parts.is_some() { setup.gpu_scene.instance_world_to_object().len() as u32 } else { 0 };
 
         // The environment is this technique's: the direct pass adds lights and emitters only.
         let (direct, direct_target) = DirectLighting::without_environment(setup, "prt")?;
@@ -324,11 +503,11 @@ impl Prt {
             .then(|| EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32))
             .transpose()?;
 
-        let bytes = u64::from(vertices.max(1)) * u64::from(floats_per_vertex) * 4;
+        let bytes = u64::from(points.max(1)) * u64::from(floats_per_vertex) * 4;
         let lower = if wavelets { "wavelet_transfer_terms" } else { "order" };
         let too_large = |e| {
             RenderError::InvalidSettings(format!(
-                "prt: {e}; lower {lower} ({floats_per_vertex} words of transfer per vertex)"
+                "prt: {e}; lower {lower} ({floats_per_vertex} words of transfer per point)"
             ))
         };
         let storage =
@@ -337,11 +516,25 @@ impl Prt {
         let defines = setup
             .gpu_scene
             .bvh_defines(Defines::new())
-            .u32("VERTEX_COUNT", vertices)
+            .u32("POINT_COUNT", points)
+            .u32("TEXELS_PER_EDGE", texels)
             .u32("TRANSFER_SAMPLES", samples)
             .u32("CHANNELS", channels)
             .u32("COEFFICIENTS", count)
-            .bool("SHADOWED", kind != "unshadowed");
+            .bool("SHADOWED", kind != "unshadowed")
+            .bool("SELF_TRANSFER", parts.is_some())
+            .u32("NO_INSTANCE", NO_INSTANCE)
+            .u32("STATIC_ROOT", parts.as_ref().and_then(|p| p.static_root).unwrap_or(0));
+        let read_only_words = |label, words: &[u32]| {
+            BufferBuilder::with_contents(label, bytemuck::cast_slice(words))
+                .usage(wgpu::BufferUsages::STORAGE)
+                .build(ctx)
+                .map_err(too_large)
+        };
+        let vertex_instances = match &parts {
+            Some(parts) => read_only_words("prt vertex instances", &parts.vertex_instances)?,
+            None => read_only_words("prt vertex instances", &[NO_INSTANCE])?,
+        };
         let layouts = |own| [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, own];
 
         let batch = if glossy { GLOSSY_BATCH } else { BATCH };
@@ -356,6 +549,7 @@ impl Prt {
                 batches.entry(1),
                 compute::storage_buffer_entry(2, true),
                 compute::storage_buffer_entry(3, false),
+                compute::storage_buffer_entry(4, true),
             ],
         );
         let transfer_group = |a: &wgpu::Buffer, b: &wgpu::Buffer| {
@@ -368,6 +562,7 @@ impl Prt {
                     batches.resource(),
                     a.as_entire_binding(),
                     b.as_entire_binding(),
+                    vertex_instances.as_entire_binding(),
                 ],
             )
         };
@@ -384,7 +579,7 @@ impl Prt {
         };
         let passes = if let Some(projection) = projection.as_ref().filter(|_| glossy) {
             let transferred =
-                storage("prt transferred radiance", u64::from(vertices.max(1)) * u64::from(count) * 16)?;
+                storage("prt transferred radiance", u64::from(points.max(1)) * u64::from(count) * 16)?;
             TransferPasses::Matrices {
                 accumulate: transfer_pipeline("accumulate_matrix")?,
                 lighting: transfer_pipeline("transfer_lighting")?,
@@ -420,14 +615,23 @@ impl Prt {
             } else {
                 crate::shaders::compose("prt transfer", &transfer_source, &defines)?
             };
-            let settings = [
+            let mut settings = vec![
                 order,
                 samples,
                 channels,
                 bounces,
                 wavelet_settings.resolution,
                 wavelet_settings.transfer_terms,
+                texels,
             ];
+            if let Some(parts) = &parts {
+                // Which vertices are in which part, and the space each instance's transfer is in (the
+                // one its geometry was uploaded in, which the setup's placement maps to).
+                settings.extend(&parts.vertex_instances);
+                for m in setup.gpu_scene.instance_world_to_object() {
+                    settings.extend(m.to_cols_array().map(f32::to_bits));
+                }
+            }
             Ok(TransferCache {
                 disk: crate::cache::DiskCache::new(crate::cache::precomputed_dir(), "prt-transfer"),
                 key: transfer_key(setup.scene, &composed, &settings),
@@ -443,8 +647,8 @@ impl Prt {
         let shape = BufferBuilder::with_contents("prt shape", bytemuck::cast_slice(&[order, 0, 0, 0]))
             .usage(wgpu::BufferUsages::UNIFORM)
             .build(ctx)?;
-        let tables = glossy.then(|| BrdfTables::new(setup, glossy_table_shape(order), "prt")).transpose()?;
-        let rotation = glossy
+        let tables = tabled.then(|| BrdfTables::new(setup, glossy_table_shape(order), "prt")).transpose()?;
+        let rotation = tabled
             .then(|| {
                 BufferBuilder::with_contents(
                     "prt rotation x90",
@@ -454,6 +658,13 @@ impl Prt {
                 .build(ctx)
             })
             .transpose()?;
+        let instance_sh = storage("prt instance sh", u64::from(instances.max(1)) * u64::from(count) * 16)?;
+        let self_transfer = match (&parts, &projection) {
+            (Some(_), Some(projection)) => {
+                Some(SelfTransfer::new(setup, projection, &instance_sh, instances, order)?)
+            }
+            _ => None,
+        };
         let read_only = |b: u32| compute::storage_buffer_entry(b, true);
         let mut shade_entries = vec![
             compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
@@ -461,12 +672,17 @@ impl Prt {
             compute::uniform_entry(2),
             read_only(3),
         ];
-        if !wavelets {
-            // The environment's SH (diffuse) or the Rx(90°) blocks (glossy).
+        if !wavelets && (!glossy || tabled) {
+            // The environment's SH (diffuse) or the Rx(90°) blocks (glossy through the tables).
             shade_entries.push(read_only(4));
         }
-        if glossy {
+        if tabled {
             shade_entries.push(read_only(5));
+        }
+        let vectors = !glossy && !wavelets;
+        if vectors {
+            // Self-transfer's vertex instances and the environment turned into each instance.
+            shade_entries.extend([read_only(5), read_only(6)]);
         }
         let shade_layout = compute::layout(ctx, "prt shade", &shade_entries);
         let (direct_view, output_view) =
@@ -482,7 +698,11 @@ impl Prt {
             },
         ];
         if let (TransferPasses::Vectors { .. }, Some(projection)) = (&passes, &projection) {
-            shade_resources.push(projection.coefficients.as_entire_binding());
+            shade_resources.extend([
+                projection.coefficients.as_entire_binding(),
+                vertex_instances.as_entire_binding(),
+                instance_sh.as_entire_binding(),
+            ]);
         }
         if let (Some(rotation), Some(tables)) = (&rotation, &tables) {
             shade_resources.extend([rotation.as_entire_binding(), tables.buffer.as_entire_binding()]);
@@ -495,7 +715,7 @@ impl Prt {
         let shade = compute::pipeline(
             ctx,
             "prt shade",
-            &shade_wgsl(kind),
+            &shade_wgsl(kind, p.choice("glossy_lobe")),
             shade_defines,
             "main",
             &layouts(&shade_layout),
@@ -509,10 +729,12 @@ impl Prt {
                 passes,
                 batches,
                 vertices,
+                points,
                 floats_per_vertex,
                 coefficients: count,
                 bounces,
                 computed_for: None,
+                precomputations: 0,
                 cache,
             },
             tables,
@@ -522,6 +744,7 @@ impl Prt {
             samples,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
             moving_meshes: setup.gpu_scene.has_instances(),
+            self_transfer,
         })
     }
 
@@ -543,12 +766,14 @@ impl Prt {
     /// cache for the geometry the technique was created for; true when the transfer is new.
     fn precompute(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<bool, RenderError> {
         let geometry = fc.gpu_scene.geometry_version;
+        // Self-transfer is of each part in its own space: true however the parts are placed.
+        let per_part = self.self_transfer.is_some();
         let t = &mut self.transfer;
-        if t.computed_for == Some(geometry) {
+        if t.computed_for == Some(geometry) || (per_part && t.computed_for.is_some()) {
             return Ok(false);
         }
         t.computed_for = Some(geometry);
-        if let Some(cache) = t.cache.as_mut().filter(|c| c.geometry == geometry) {
+        if let Some(cache) = t.cache.as_mut().filter(|c| per_part || c.geometry == geometry) {
             if let Some(bytes) = cache.disk.load(cache.key, t.buffer.size() as usize) {
                 fc.ctx.queue.write_buffer(&t.buffer, 0, &bytes);
                 cache.loads += 1;
@@ -556,10 +781,11 @@ impl Prt {
             }
             cache.store_pending = true;
         }
+        t.precomputations += 1;
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         let max = self.max_workgroups;
-        let [x, y, _] = workgroups_for(t.vertices, WORKGROUP, max);
-        let [fx, fy, _] = workgroups_for(t.vertices * t.floats_per_vertex, WORKGROUP, max);
+        let [x, y, _] = workgroups_for(t.points, WORKGROUP, max);
+        let [fx, fy, _] = workgroups_for(t.points * t.floats_per_vertex, WORKGROUP, max);
         let batches = &t.batches;
         // A bounce's (or the matrices') directions, batch by batch, over `[x, y]` workgroups.
         let directions =
@@ -585,7 +811,7 @@ impl Prt {
                 }
                 TransferPasses::Matrices { accumulate, group, .. } => {
                     // A workgroup per vertex.
-                    let [gx, gy, _] = workgroups_for(t.vertices * GLOSSY_BATCH, GLOSSY_BATCH, max);
+                    let [gx, gy, _] = workgroups_for(t.points * GLOSSY_BATCH, GLOSSY_BATCH, max);
                     directions(encoder, accumulate, group, [gx, gy]);
                 }
                 TransferPasses::Vectors {
@@ -628,7 +854,7 @@ impl Prt {
         if self.lit {
             return Ok(());
         }
-        let [x, y, _] = workgroups_for(t.vertices * t.coefficients, WORKGROUP, self.max_workgroups);
+        let [x, y, _] = workgroups_for(t.points * t.coefficients, WORKGROUP, self.max_workgroups);
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         profiler.pass(fc.ctx, "transferred radiance", |encoder| {
             let mut pass =
@@ -645,18 +871,25 @@ impl Prt {
 /// The transfer passes' shader: the direction lattice, then the vectors' or the matrices' passes.
 fn transfer_wgsl(glossy: bool) -> String {
     let passes = if glossy { include_str!("glossy.wgsl") } else { include_str!("transfer.wgsl") };
-    format!("{}\n{passes}", include_str!("lattice.wgsl"))
+    format!("{}\n{}\n{passes}", include_str!("lattice.wgsl"), include_str!("points.wgsl"))
 }
 
-/// The shading pass's shader for `transfer`: the pixel's triangle and point, then diffuse, glossy or
-/// wavelet environment light.
-fn shade_wgsl(transfer: &str) -> String {
-    let shade = include_str!("shade.wgsl");
-    match transfer {
-        "glossy" => {
-            format!("{shade}\n{LOOKUP_WGSL}\n{SHADING_WGSL}\n{}", include_str!("shade_glossy.wgsl"))
+/// The shading pass's shader for `transfer` (and `glossy_lobe`): the pixel's triangle and point, then
+/// diffuse, glossy or wavelet environment light.
+fn shade_wgsl(transfer: &str, glossy_lobe: &str) -> String {
+    let shade = format!("{}\n{}", include_str!("points.wgsl"), include_str!("shade.wgsl"));
+    match (transfer, glossy_lobe) {
+        ("glossy", "phong") => {
+            let (glossy, phong) =
+                (include_str!("shade_glossy.wgsl"), include_str!("shade_glossy_phong.wgsl"));
+            format!("{shade}\n{glossy}\n{phong}")
         }
-        "wavelet" => format!("{shade}\n{}", include_str!("shade_wavelet.wgsl")),
+        ("glossy", _) => {
+            let (glossy, tables) =
+                (include_str!("shade_glossy.wgsl"), include_str!("shade_glossy_tables.wgsl"));
+            format!("{shade}\n{LOOKUP_WGSL}\n{SHADING_WGSL}\n{glossy}\n{tables}")
+        }
+        ("wavelet", _) => format!("{shade}\n{}", include_str!("shade_wavelet.wgsl")),
         _ => format!("{shade}\n{}", include_str!("shade_diffuse.wgsl")),
     }
 }
@@ -670,6 +903,9 @@ impl Technique for Prt {
             None => false,
         };
         self.lit &= !new_transfer && !new_environment;
+        if let Some(parts) = self.self_transfer.as_mut() {
+            parts.turn(fc, profiler, new_environment, self.max_workgroups)?;
+        }
         if let TransferPasses::Wavelets(w) = &mut self.transfer.passes {
             if new_transfer {
                 w.invalidate();
@@ -717,6 +953,8 @@ impl Technique for Prt {
             ("transfer_cache_loads".to_string(), cache_count(|c| c.loads)),
             ("transfer_cache_stores".to_string(), cache_count(|c| c.stores)),
             ("transfer_vertices".to_string(), f64::from(self.transfer.vertices)),
+            ("transfer_points".to_string(), f64::from(self.transfer.points)),
+            ("transfer_precomputations".to_string(), f64::from(self.transfer.precomputations)),
             ("transfer_floats_per_vertex".to_string(), f64::from(self.transfer.floats_per_vertex)),
             ("transfer_bytes".to_string(), self.transfer.buffer.size() as f64),
             (
@@ -724,7 +962,7 @@ impl Technique for Prt {
                 match &self.transfer.passes {
                     TransferPasses::Wavelets(w) => w.rays(),
                     _ => {
-                        f64::from(self.transfer.vertices)
+                        f64::from(self.transfer.points)
                             * f64::from(self.samples)
                             * f64::from(1 + self.transfer.bounces)
                     }
@@ -743,6 +981,10 @@ impl Technique for Prt {
         if let Some(tables) = &self.tables {
             counters.insert("brdf_table_bytes".to_string(), tables.shape.bytes() as f64);
         }
+        if let Some(parts) = &self.self_transfer {
+            counters.insert("self_transfer_instances".to_string(), f64::from(parts.instances));
+            counters.insert("self_transfer_turns".to_string(), parts.turns as f64);
+        }
         if let Some(projection) = &self.projection {
             counters.extend(projection.counters());
         }
@@ -755,11 +997,17 @@ impl Technique for Prt {
             "prt: wavelet transfer is diffuse and shadowed (specular lobes get no environment light, \
              there are no interreflections); back faces get no environment light"
                 .into()
-        } else if self.tables.is_some() {
+        } else if matches!(self.transfer.passes, TransferPasses::Matrices { .. }) {
             format!(
                 "prt: glossy transfer carries the environment's light in {} SH bands, too few for sharp \
-                 reflections (low roughness is blurred); back faces get no environment light",
-                self.projection.as_ref().map_or(0, |p| p.coefficient_count().isqrt())
+                 reflections (low roughness is blurred){}; back faces get no environment light",
+                self.projection.as_ref().map_or(0, |p| p.coefficient_count().isqrt()),
+                if self.tables.is_some() {
+                    ""
+                } else {
+                    "; Phong lobes about the mirror direction stand in for GGX (no off-specular peak, \
+                     Fresnel taken at the view angle)"
+                }
             )
         } else {
             "prt: diffuse transfer (specular lobes get no environment light; transfer=glossy gives them \
@@ -769,7 +1017,14 @@ impl Technique for Prt {
         if let Some(e) = self.transfer.cache.as_ref().and_then(|c| c.error.as_ref()) {
             warnings.push(format!("prt: the transfer was not cached ({e})"));
         }
-        if self.moving_meshes {
+        if self.self_transfer.is_some() {
+            warnings.push(
+                "prt: the scene has moving meshes; their transfer is self-transfer (moving_transfer=self): \
+                 each moving mesh shadows only itself, the static meshes only each other, and no shadow \
+                 passes between a moving mesh and the rest"
+                    .into(),
+            );
+        } else if self.moving_meshes {
             warnings.push(
                 "prt: the scene has moving meshes; every frame in which one moves recomputes the transfer of \
                  every vertex (precomputed transfer assumes still geometry)"

@@ -1,10 +1,11 @@
 // Per-pixel PRT shading: the surface under the pixel's primary ray (cast again through the shared BVH,
 // as the ray-cast G-buffer casts it, for the triangle and barycentrics the G-buffer does not keep) gets
-// the environment's light through its triangle's precomputed transfer, by `environment_light` of
-// shade_diffuse.wgsl (transfer vectors), shade_glossy.wgsl (transfer matrices) or shade_wavelet.wgsl
-// (wavelet transfer), one of which is composed after this file. Back faces (seen against their normals) get none: transfer is for the side
-// the normals point to. The direct pass's estimate (lights and emitters, the environment left out) is
-// added and the sum averaged over frames.
+// the environment's light through the precomputed transfer of the points about it (points.wgsl, composed
+// before this file), by `environment_light` of shade_diffuse.wgsl (transfer vectors), shade_glossy.wgsl
+// (transfer matrices) or shade_wavelet.wgsl (wavelet transfer), one of which is composed after this
+// file. Back faces (seen against their normals) get none: transfer is for the side the normals point
+// to. The direct pass's estimate (lights and emitters, the environment left out) is added and the sum
+// averaged over frames.
 
 #import common/frame.wgsl
 
@@ -15,17 +16,6 @@ struct Shape {
     order: u32,
 }
 @group(2) @binding(2) var<uniform> shape: Shape;
-
-// A triangle's vertices and the barycentric weights of a point on it.
-struct TrianglePoint {
-    vertices: vec3u,
-    weights: vec3f,
-}
-
-fn triangle_point(triangle: u32, u: f32, v: f32) -> TrianglePoint {
-    let i = triangle * 3u;
-    return TrianglePoint(vec3u(indices[i], indices[i + 1u], indices[i + 2u]), vec3f(1.0 - u - v, u, v));
-}
 
 @compute @workgroup_size(TILE, TILE)
 fn main(@builtin(global_invocation_id) id: vec3u) {

@@ -1,4 +1,5 @@
-// Diffuse transfer vectors per vertex (Sloan, Kautz & Snyder 2002), precomputed through the shared BVH:
+// Diffuse transfer vectors per point (a vertex, or a texel of a triangle's patch: points.wgsl; Sloan,
+// Kautz & Snyder 2002), precomputed through the shared BVH:
 // T_k = ∫ V(ω) max(0, n·ω) Y_k(ω) dω, so that a vertex lit by an environment with SH coefficients L_k
 // receives the irradiance Σ_k L_k T_k (shadowed: V is the vertex's visibility of the environment;
 // unshadowed: V = 1, the clamped cosine alone). The integral is estimated with TRANSFER_SAMPLES
@@ -12,6 +13,12 @@
 // ρ_q the hit's diffuse reflectance (RGB: interreflected transfer has CHANNELS = 3 per coefficient,
 // the others 1). Back faces (hit against their normals) pass nothing on: transfer is for the side the
 // normals point to. Layout: transfer[(vertex · order² + k) · CHANNELS + channel].
+//
+// SELF_TRANSFER (scenes with moving meshes, shadowed and unshadowed transfer): every vertex's transfer
+// is that of its rigid part alone, in the part's own space: a moving mesh's vertices see only their own
+// mesh (its instance's bottom level, in the space it was uploaded in), the static meshes' see only the
+// static meshes (in world space). Such transfer stays true however the part moves, turned with it
+// (shade_diffuse.wgsl lights it with the environment turned into the part's space).
 
 #import common/scene.wgsl
 #import common/hsh.wgsl
@@ -27,31 +34,68 @@ struct Batch {
 // Interreflection: the previous bounce's transfer increment and this bounce's (CHANNELS = 3 each).
 @group(2) @binding(2) var<storage, read> previous_bounce: array<f32>;
 @group(2) @binding(3) var<storage, read_write> this_bounce: array<f32>;
+// SELF_TRANSFER: per vertex, its BVH instance, or NO_INSTANCE for the static meshes (GpuScene::bvh_parts).
+@group(2) @binding(4) var<storage, read> vertex_instances: array<u32>;
 
-const BATCH: u32 = 32u;
-// Sample s of the vertex's cosine-distributed directions (world space).
-fn transfer_direction(vertex: u32, s: u32, n: vec3f) -> vec3f {
-    return local_to_world(sample_cosine_hemisphere(transfer_lattice(vertex, s)), n);
+// Where a vertex's transfer rays start, about which normal, and the part of the BVH they see.
+struct TransferFrame {
+    origin: vec3f,
+    normal: vec3f,
+    // Node reference of the part's root (0: the whole scene).
+    root: u32,
+    // Seeds the point's directions.
+    seed: u32,
 }
 
-// Invocation per vertex, over the (x, y) spread of gpu::dispatch::workgroups_for.
+fn transfer_frame(point: u32) -> TransferFrame {
+    let p = point_surface(point);
+    let n = p.normal;
+    let origin = offset_origin(p.position, n);
+    if !SELF_TRANSFER {
+        return TransferFrame(origin, n, 0u, p.seed);
+    }
+    let instance = vertex_instances[p.vertex];
+    if instance == NO_INSTANCE {
+        return TransferFrame(origin, n, STATIC_ROOT, p.seed);
+    }
+    // Rigid motion (and uniform scale) maps normals as directions.
+    let part = bvh_instances[instance];
+    return TransferFrame(
+        bvh_affine(part, origin, 1.0),
+        normalize(bvh_affine(part, n, 0.0)),
+        part.root << 3u,
+        p.seed,
+    );
+}
+
+fn transfer_occluded(f: TransferFrame, d: vec3f) -> bool {
+    let ray = Ray(f.origin, d);
+    return trace_any_from(ray, bvh_ray(ray), f.root, 0.0, FLT_MAX);
+}
+
+const BATCH: u32 = 32u;
+// Sample s of a point's cosine-distributed directions (world space; `seed`: PointSurface::seed).
+fn transfer_direction(seed: u32, s: u32, n: vec3f) -> vec3f {
+    return local_to_world(sample_cosine_hemisphere(transfer_lattice(seed, s)), n);
+}
+
+// Invocation per point, over the (x, y) spread of gpu::dispatch::workgroups_for.
 @compute @workgroup_size(64)
 fn accumulate(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
-    let vertex = id.x + id.y * groups.x * 64u;
-    if vertex >= VERTEX_COUNT {
+    let point = id.x + id.y * groups.x * 64u;
+    if point >= POINT_COUNT {
         return;
     }
-    let v = vertices[vertex];
-    let n = vertex_normal(v);
-    let origin = offset_origin(v.position, n);
+    let f = transfer_frame(point);
+    let n = f.normal;
     var visible = 0u;
     for (var s = 0u; s < BATCH; s++) {
         let sample = batch.first_sample + s;
         if sample >= TRANSFER_SAMPLES {
             break;
         }
-        let d = transfer_direction(vertex, sample, n);
-        if !SHADOWED || !trace_any(Ray(origin, d), 0.0, FLT_MAX) {
+        let d = transfer_direction(f.seed, sample, n);
+        if !SHADOWED || !transfer_occluded(f, d) {
             visible |= 1u << s;
         }
     }
@@ -61,52 +105,52 @@ fn accumulate(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups)
         var sum = 0.0;
         for (var s = 0u; s < BATCH; s++) {
             if (visible & (1u << s)) != 0u {
-                sum += sh_one(k, transfer_direction(vertex, batch.first_sample + s, n));
+                sum += sh_one(k, transfer_direction(f.seed, batch.first_sample + s, n));
             }
         }
         for (var c = 0u; c < CHANNELS; c++) {
-            transfer[(vertex * count + k) * CHANNELS + c] += sum * weight;
+            transfer[(point * count + k) * CHANNELS + c] += sum * weight;
         }
     }
 }
 
-fn previous_transfer(vertex: u32, k: u32, count: u32) -> vec3f {
-    let i = (vertex * count + k) * 3u;
+fn previous_transfer(point: u32, k: u32, count: u32) -> vec3f {
+    let i = (point * count + k) * 3u;
     return vec3f(previous_bounce[i], previous_bounce[i + 1u], previous_bounce[i + 2u]);
 }
 
 // One batch of directions of one bounce of interreflection into this_bounce.
 @compute @workgroup_size(64)
 fn interreflect(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
-    let vertex = id.x + id.y * groups.x * 64u;
-    if vertex >= VERTEX_COUNT {
+    let point = id.x + id.y * groups.x * 64u;
+    if point >= POINT_COUNT {
         return;
     }
-    let v = vertices[vertex];
-    let n = vertex_normal(v);
-    let origin = offset_origin(v.position, n);
+    // Interreflection sees the whole scene (no self-transfer).
+    let p = point_surface(point);
+    let n = p.normal;
+    let origin = offset_origin(p.position, n);
     let count = batch.order * batch.order;
     for (var s = 0u; s < BATCH; s++) {
         let sample = batch.first_sample + s;
         if sample >= TRANSFER_SAMPLES {
             break;
         }
-        let d = transfer_direction(vertex, sample, n);
+        let d = transfer_direction(p.seed, sample, n);
         let hit = trace_closest(Ray(origin, d), 0.0, FLT_MAX);
         if !hit_found(hit) || hits_back_face(hit.triangle, hit.u, hit.v, d) {
             continue;
         }
         let q = surface_at(hit.triangle, hit.u, hit.v, d);
         let reflectance = brdf_lobe_weights(q.material, saturate(dot(q.normal, -d))).diffuse;
-        let a = indices[hit.triangle * 3u];
-        let b = indices[hit.triangle * 3u + 1u];
-        let c = indices[hit.triangle * 3u + 2u];
-        let w = vec3f(1.0 - hit.u - hit.v, hit.u, hit.v);
+        let at = triangle_point(hit.triangle, hit.u, hit.v);
+        let w = at.weights;
         let scale = reflectance / f32(TRANSFER_SAMPLES);
         for (var k = 0u; k < count; k++) {
-            let t = w.x * previous_transfer(a, k, count) + w.y * previous_transfer(b, k, count)
-                + w.z * previous_transfer(c, k, count);
-            let i = (vertex * count + k) * 3u;
+            let t = w.x * previous_transfer(at.vertices.x, k, count)
+                + w.y * previous_transfer(at.vertices.y, k, count)
+                + w.z * previous_transfer(at.vertices.z, k, count);
+            let i = (point * count + k) * 3u;
             this_bounce[i] += scale.r * t.r;
             this_bounce[i + 1u] += scale.g * t.g;
             this_bounce[i + 2u] += scale.b * t.b;
@@ -118,7 +162,7 @@ fn interreflect(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroup
 @compute @workgroup_size(64)
 fn add_bounce(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let i = id.x + id.y * groups.x * 64u;
-    if i < VERTEX_COUNT * batch.order * batch.order * 3u {
+    if i < POINT_COUNT * batch.order * batch.order * 3u {
         transfer[i] += this_bounce[i];
     }
 }
