@@ -91,10 +91,42 @@ impl EnvironmentJson {
     }
 }
 
-/// Writes `scene` to `path` as a self-contained `.glb`.
+/// Writes `scene` to `path` as a self-contained `.glb`. An environment map that is no file (one a
+/// built-in scene generates, e.g. `pillars:sky=patch`) is written beside it as a Radiance `.hdr`
+/// (`NAME.environment.hdr`) and referred to by that file's name, so that the scene loads again whole.
 pub fn export(scene: &Scene, path: &Path) -> Result<(), SceneError> {
+    let written;
+    let scene = match &scene.environment {
+        // Where the loader looks for it: as given (absolute, or from the working directory), or
+        // relative to the glTF file.
+        Environment::Map(map)
+            if !Path::new(&map.path).is_file()
+                && !path.parent().is_some_and(|dir| dir.join(&map.path).is_file()) =>
+        {
+            let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+            let name = format!("{stem}.environment.hdr");
+            let hdr = path.with_file_name(&name);
+            write_hdr(map, &hdr).map_err(|m| SceneError::file(&hdr, m))?;
+            let mut copy = scene.clone();
+            copy.environment = Environment::Map(crate::scene::EnvironmentMap { path: name, ..map.clone() });
+            written = copy;
+            &written
+        }
+        _ => scene,
+    };
     let glb = to_glb(scene).map_err(|m| SceneError::file(path, m))?;
     std::fs::write(path, glb).map_err(|e| SceneError::file(path, format!("cannot write file: {e}")))
+}
+
+/// Writes an equirectangular map's radiance (without its intensity, which the extras keep) as a
+/// Radiance `.hdr`.
+fn write_hdr(map: &crate::scene::EnvironmentMap, path: &Path) -> Result<(), String> {
+    let pixels: Vec<image::Rgb<f32>> =
+        map.rgb.chunks_exact(3).map(|c| image::Rgb([c[0], c[1], c[2]])).collect();
+    let file = std::fs::File::create(path).map_err(|e| format!("cannot write file: {e}"))?;
+    image::codecs::hdr::HdrEncoder::new(std::io::BufWriter::new(file))
+        .encode(&pixels, map.width as usize, map.height as usize)
+        .map_err(|e| format!("cannot encode the environment map: {e}"))
 }
 
 /// The bytes of the `.glb` that [`export`] writes.

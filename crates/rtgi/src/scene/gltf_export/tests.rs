@@ -177,6 +177,30 @@ fn representative_scene_round_trips() {
     assert_scenes_equivalent(&back, &again);
 }
 
+/// A generated environment map (no file behind it) is written beside the `.glb` and loads again:
+/// `pillars:sky=patch`'s map, to the precision of Radiance's shared exponent (8 mantissa bits).
+#[test]
+fn a_generated_environment_map_is_exported_beside_the_scene() {
+    let scene = crate::scene::builtin::build("pillars", &[("sky".into(), "patch".into())]).unwrap();
+    let Environment::Map(map) = &scene.environment else { panic!("pillars:sky=patch has a map") };
+    assert!(!Path::new(&map.path).is_file());
+    let dir = tempfile::tempdir().unwrap();
+    let back = round_trip(&scene, dir.path());
+    assert!(dir.path().join("round_trip.environment.hdr").is_file());
+    let Environment::Map(loaded) = &back.environment else {
+        panic!("the map did not load again: {:?} {:?}", back.environment, back.warnings)
+    };
+    assert_eq!((loaded.width, loaded.height, loaded.intensity), (map.width, map.height, map.intensity));
+    let worst = map
+        .rgb
+        .iter()
+        .zip(&loaded.rgb)
+        .map(|(a, b)| (a - b).abs() / a.abs().max(1e-3))
+        .fold(0.0f32, f32::max);
+    // RGBE keeps 8 bits of the largest channel's mantissa: ≤ 2⁻⁷ relative to it.
+    assert!(worst < 0.01, "worst relative difference {worst}");
+}
+
 #[test]
 fn comparison_detects_differences() {
     let scene = representative_scene();
