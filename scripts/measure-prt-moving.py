@@ -49,9 +49,8 @@ def main():
     ]
     for scene in dict.fromkeys(c["scene"] for c in cells):
         lines += [f"## {scene}", ""]
-        reference = next((e.get("set") for e in suite.get("scenes", []) if e["scene"] == scene), None)
-        if reference:
-            settings = ", ".join(f"{k} = {v}" for k, v in reference.items())
+        settings = m.scene_reference_settings(suite, scene)
+        if settings:
             lines += [f"This scene's reference is the path tracer with {settings} (not full GI): the "
                       "environment's direct light, what shadowed transfer computes.", ""]
         lines += [

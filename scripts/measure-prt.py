@@ -70,9 +70,8 @@ def main():
     for scene in scenes:
         own = [c for c in cells if c["scene"] == scene]
         lines += [f"## {scene}", ""]
-        reference = next((e.get("set") for e in suite.get("scenes", []) if e["scene"] == scene), None)
-        if reference:
-            settings = ", ".join(f"{k} = {v}" for k, v in reference.items())
+        settings = m.scene_reference_settings(suite, scene)
+        if settings:
             lines += [f"This scene's reference is the path tracer with {settings} (not full GI).", ""]
         lines += [
             cheaper_text(own), "",

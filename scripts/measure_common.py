@@ -212,6 +212,12 @@ def tonemap(rtgi, src, dst):
     run([rtgi, "tonemap", src, dst])
 
 
+def scene_reference_settings(suite, scene):
+    """The path settings of a scene's reference in words ("max_bounces = 0"), or None for full GI."""
+    reference = next((e.get("set") for e in suite.get("scenes", []) if e["scene"] == scene), None)
+    return ", ".join(f"{k} = {v}" for k, v in reference.items()) if reference else None
+
+
 def pass_ms(cell, name):
     """A pass's time per frame in a cell (None when the cell has no such pass)."""
     for p in cell["passes"]:

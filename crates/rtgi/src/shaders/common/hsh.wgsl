@@ -59,6 +59,13 @@ fn hsh_one(k: u32, d: vec3f) -> f32 {
     return harmonic_one(u32(lm.x), lm.y, d, 2.0 * saturate(d.z) - 1.0, 2.0 * PI);
 }
 
+// Where band l's (2l+1)² matrix starts in an SH rotation's band matrices laid out band after band
+// (hsh.rs ShRotationN::bands_f32): Σ_{j<l} (2j+1)² = l(4l² − 1)/3 (0 for l = 0, the wrapped
+// subtraction multiplied by 0). For l = order it is the floats of all bands.
+fn sh_band_matrix_start(l: u32) -> u32 {
+    return l * (4u * l * l - 1u) / 3u;
+}
+
 fn sh_one(k: u32, d: vec3f) -> f32 {
     let lm = harmonic_lm(k);
     return harmonic_one(u32(lm.x), lm.y, d, clamp(d.z, -1.0, 1.0), 4.0 * PI);

@@ -28,7 +28,7 @@ fn rotate_z(b: ptr<function, Band>, l: u32, angle: f32) {
 // Band l turned by Rx(90°), or by its inverse (the transposed block).
 fn rotate_x90(b: ptr<function, Band>, l: u32, inverse: bool) {
     let n = 2u * l + 1u;
-    let block = l * (4u * l * l - 1u) / 3u;
+    let block = sh_band_matrix_start(l);
     var out: Band;
     for (var i = 0u; i < n; i++) {
         var sum = vec3f(0.0);

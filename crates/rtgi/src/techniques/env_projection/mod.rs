@@ -58,7 +58,7 @@ pub struct EnvironmentProjection {
 }
 
 /// Floats in the band matrices of an order-`order` SH rotation: Σ_{l<order} (2l+1)².
-fn rotation_floats(order: u32) -> u32 {
+pub(crate) fn rotation_floats(order: u32) -> u32 {
     (0..order).map(|l| (2 * l + 1) * (2 * l + 1)).sum()
 }
 

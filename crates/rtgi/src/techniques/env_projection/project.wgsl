@@ -71,9 +71,7 @@ fn rotate(@builtin(global_invocation_id) id: vec3u) {
     let l = u32(sqrt(f32(k) + 0.5));
     let n = 2u * l + 1u;
     let row = k - l * l;
-    // Σ_{j<l} (2j+1)² = l(4l² − 1)/3 floats of the lower bands come first.
-    let first = select(0u, l * (4u * l * l - 1u) / 3u, l > 0u);
-    let band = first + row * n;
+    let band = sh_band_matrix_start(l) + row * n;
     var sum = vec3f(0.0);
     for (var j = 0u; j < n; j++) {
         sum += rotation_matrices[band + j] * unrotated_sh[l * l + j].rgb;

@@ -359,8 +359,7 @@ impl SelfTransfer {
         order: u32,
     ) -> Result<SelfTransfer, RenderError> {
         let ctx = setup.ctx;
-        // Σ_{l<order} (2l+1)² floats of band matrices per instance.
-        let floats = u64::from(order * (4 * order * order - 1) / 3);
+        let floats = u64::from(super::env_projection::rotation_floats(order));
         let rotations = BufferBuilder::new("prt instance turns", 4 * floats * u64::from(instances.max(1)))
             .storage()
             .copy()

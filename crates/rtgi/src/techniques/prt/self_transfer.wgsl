@@ -3,6 +3,8 @@
 // map (host: `hsh::sh_rotation`, band matrices row-major band after band, per instance), whenever the
 // environment or an instance's placement changes. One coefficient of one instance per invocation.
 
+#import common/hsh.wgsl
+
 struct Parts {
     order: u32,
     instances: u32,
@@ -24,11 +26,7 @@ fn turn_into_instances(@builtin(global_invocation_id) id: vec3u, @builtin(num_wo
     let k = element % count;
     let l = u32(sqrt(f32(k) + 0.5));
     let n = 2u * l + 1u;
-    // Σ_{j<l} (2j+1)² = l(4l² − 1)/3 floats of the lower bands come first; an instance's matrices
-    // take order(4 order² − 1)/3.
-    let per_instance = parts.order * (4u * parts.order * parts.order - 1u) / 3u;
-    let first = select(0u, l * (4u * l * l - 1u) / 3u, l > 0u);
-    let row = instance * per_instance + first + (k - l * l) * n;
+    let row = instance * sh_band_matrix_start(parts.order) + sh_band_matrix_start(l) + (k - l * l) * n;
     var sum = vec3f(0.0);
     for (var j = 0u; j < n; j++) {
         sum += rotations[row + j] * environment_sh[l * l + j].rgb;
