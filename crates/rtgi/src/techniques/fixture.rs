@@ -93,3 +93,29 @@ impl Fixture {
             .collect()
     }
 }
+
+/// Sum of |difference| over the sum of the reference, over all pixels and channels.
+pub fn mean_relative_difference(pixels: &[glam::Vec3], reference: &[glam::Vec3]) -> f64 {
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for (p, r) in pixels.iter().zip(reference) {
+        num += f64::from((*p - *r).abs().element_sum());
+        den += f64::from(r.element_sum());
+    }
+    num / den
+}
+
+/// `source` (a scene with moving meshes) posed at time `t`, uploaded with its moving meshes as
+/// instances (so that `GpuScene::move_meshes` can move them), seen at 64×48.
+pub fn moving_fixture_at(source: &crate::scene::Scene, t: f32) -> Fixture {
+    let mut f = fixture_of(source.posed(t), 64, 48);
+    f.gpu_scene = GpuScene::with_moving_meshes(&f.ctx, &f.scene, &source.moving_meshes())
+        .expect("upload with moving meshes");
+    redraw_inputs(&mut f);
+    f
+}
+
+/// Renders the frame inputs (G-buffer, shadow maps) again, after the scene moved.
+pub fn redraw_inputs(f: &mut Fixture) {
+    let mut profiler = Profiler::new(&f.ctx, TimingMode::Passes);
+    f.frame.render_inputs(&f.ctx, &f.gpu_scene, &mut profiler).expect("gbuffer");
+}

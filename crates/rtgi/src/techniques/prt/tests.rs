@@ -5,7 +5,9 @@ use crate::gpu::readback::read_buffer;
 use crate::gpu::scene::{GpuVertex, oct_decode};
 use crate::scene::{Environment, Material};
 use crate::shaders::validate;
-use crate::techniques::fixture::{Fixture, fixture_of};
+use crate::techniques::fixture::{
+    Fixture, fixture_of, mean_relative_difference, moving_fixture_at, redraw_inputs,
+};
 
 pub(super) fn params(settings: &[(&str, &str)]) -> ParamValues {
     let settings: Vec<(String, String)> =
@@ -125,16 +127,6 @@ pub(super) fn direct_environment_light(f: &mut Fixture) -> Vec<Vec3> {
     .expect("params");
     let mut direct = (crate::techniques::direct::INFO.create)(&f.setup(&direct_params)).expect("direct");
     f.render_rgb(direct.as_mut(), 16)
-}
-
-/// Σ |pixel − reference| / Σ reference over every channel.
-pub(super) fn mean_relative_difference(pixels: &[Vec3], reference: &[Vec3]) -> f64 {
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for (p, r) in pixels.iter().zip(reference) {
-        num += f64::from((*p - *r).abs().element_sum());
-        den += f64::from(r.element_sum());
-    }
-    num / den
 }
 
 /// Shadowed transfer is what the direct pass computes from the environment with its own shadow rays,
@@ -459,20 +451,6 @@ fn moving_meshes_are_warned_of() {
     assert!(warnings.iter().any(|w| w.contains("moving meshes")), "{warnings:?}");
 }
 
-/// `pillars:animate=knot` posed at `t`, uploaded with its knot as a moving mesh, its G-buffer drawn.
-fn tumbling_knot_at(source: &crate::scene::Scene, t: f32) -> Fixture {
-    let mut f = fixture_of(source.posed(t), 64, 48);
-    f.gpu_scene = crate::gpu::GpuScene::with_moving_meshes(&f.ctx, &f.scene, &source.moving_meshes())
-        .expect("upload with moving meshes");
-    redraw_inputs(&mut f);
-    f
-}
-
-fn redraw_inputs(f: &mut Fixture) {
-    let mut profiler = crate::gpu::Profiler::new(&f.ctx, crate::gpu::TimingMode::Passes);
-    f.frame.render_inputs(&f.ctx, &f.gpu_scene, &mut profiler).expect("gbuffer");
-}
-
 /// Self-transfer turns with its mesh: pillars' tumbling knot, its transfer precomputed once at t = 0 and
 /// lit at t = 2 s (a quarter tumble) with the environment turned into its space, renders what a
 /// technique created with the knot uploaded at t = 2 s renders (its own precomputation, in that pose's
@@ -490,7 +468,7 @@ fn self_transfer_turns_with_its_mesh() {
         ("transfer_samples", "512"),
         ("transfer_cache", "off"),
     ]);
-    let mut f = tumbling_knot_at(&source, 0.0);
+    let mut f = moving_fixture_at(&source, 0.0);
     let mut prt = Prt::new(&f.setup(&p)).expect("prt");
     assert!(prt.self_transfer.is_some(), "moving meshes get self-transfer by default");
     let still = f.render_rgb(&mut prt, 1);
@@ -509,7 +487,7 @@ fn self_transfer_turns_with_its_mesh() {
     let turned = f.render_rgb(&mut prt, 1);
     assert_eq!(prt.transfer.precomputations, 1, "the move precomputed again");
 
-    let mut g = tumbling_knot_at(&source, 2.0);
+    let mut g = moving_fixture_at(&source, 2.0);
     let mut fresh_prt = Prt::new(&g.setup(&p)).expect("prt");
     let fresh = g.render_rgb(&mut fresh_prt, 1);
     let (difference, tumble) =
