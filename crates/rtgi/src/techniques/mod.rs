@@ -15,6 +15,7 @@ pub mod env_projection;
 #[cfg(test)]
 pub(crate) mod fixture;
 pub mod igi;
+pub mod ism;
 pub mod light_paths;
 pub mod lpv;
 pub mod path;

@@ -28,6 +28,8 @@
 // Per pixel: luminance of incident light kept, lost to clamping, and added back by compensation.
 @group(2) @binding(2) var<storage, read_write> clamp_stats: array<vec4f>;
 @group(2) @binding(3) var<uniform> chunk: Chunk;
+// The VPLs' imperfect shadow maps (ism/lookup.wgsl), with visibility=ism; a placeholder otherwise.
+@group(2) @binding(4) var<storage, read> ism_depths: array<f32>;
 
 struct Chunk {
     begin: u32,
@@ -51,12 +53,13 @@ fn outgoing_from_vpls(y: SurfaceHit, dir: vec3f, first: u32, last: u32, with_emi
         if max3(inc.weight) <= 0.0 || cos_y <= 0.0 || dot(y.geometric_normal, inc.direction) <= 0.0 {
             continue;
         }
-        var w = inc.weight;
+        let visible = vpl_visibility(k, v, y.position, y.geometric_normal, origin, inc);
+        if visible <= 0.0 {
+            continue;
+        }
+        var w = inc.weight * visible;
         if inc.geometry > G_MAX {
             w *= G_MAX / inc.geometry;
-        }
-        if trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)) {
-            continue;
         }
         l += brdf_eval(y.material, y.normal, -dir, inc.direction) * w * cos_y;
     }
@@ -120,12 +123,13 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
                 continue;
             }
             // Occluded VPLs deliver nothing, so the bound removes nothing of theirs either: the
-            // shadow ray comes before the bookkeeping of what the bound keeps and loses.
-            if trace_any(Ray(origin, inc.direction), 0.0, inc.distance * (1.0 - 1e-4)) {
+            // visibility test comes before the bookkeeping of what the bound keeps and loses.
+            let visible = vpl_visibility(k, v, s.position, s.geometric_normal, origin, inc);
+            if visible <= 0.0 {
                 continue;
             }
             let cos_x = max(dot(s.normal, inc.direction), 0.0);
-            var w = inc.weight;
+            var w = inc.weight * visible;
             if G_MAX > 0.0 && inc.geometry > G_MAX {
                 let kept_fraction = G_MAX / inc.geometry;
                 lost += luminance(w) * cos_x * (1.0 - kept_fraction);

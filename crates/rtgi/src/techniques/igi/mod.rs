@@ -19,6 +19,7 @@ use crate::techniques::RenderError;
 use super::compute::{self, DispatchSlots, storage_buffer_entry, storage_texture_entry, texture_entry};
 use super::direct::{DirectLighting, DirectOutput, with_direct_params};
 use super::discontinuity::{DiscontinuityFilter, FilterSettings, packed_buffer_bytes};
+use super::ism::{self, ImperfectShadowMaps, IsmSettings};
 use super::light_paths::{GpuVpl, LightPaths, MAX_DEPTH, VPL_WGSL, mean_albedo, set_layout};
 use super::{FrameContext, FrameNeeds, Measured, Technique, TechniqueInfo, TechniqueSetup};
 
@@ -64,6 +65,10 @@ macro_rules! igi_params {
                 default: "false",
                 doc: "add back the light removed by g_max with one hemisphere ray per pixel (Kollig & Keller 2004)",
             },
+            super::ism::ISM_PARAMS[0],
+            super::ism::ISM_PARAMS[1],
+            super::ism::ISM_PARAMS[2],
+            super::ism::ISM_PARAMS[3],
             ParamSpec {
                 name: "filter",
                 kind: ParamKind::Bool,
@@ -81,7 +86,7 @@ macro_rules! igi_params {
     };
 }
 
-const IGI_PARAMS: [ParamSpec; 18] = igi_params!(
+const IGI_PARAMS: [ParamSpec; 22] = igi_params!(
     ParamSpec {
         name: "filter_normals",
         kind: ParamKind::Bool,
@@ -96,7 +101,7 @@ const IGI_PARAMS: [ParamSpec; 18] = igi_params!(
     },
 );
 
-const IGI_SH_PARAMS: [ParamSpec; 16] = igi_params!();
+const IGI_SH_PARAMS: [ParamSpec; 20] = igi_params!();
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "igi",
@@ -143,6 +148,7 @@ struct Igi {
     gather: wgpu::ComputePipeline,
     gather_group: wgpu::BindGroup,
     chunks: DispatchSlots,
+    ism: Option<ImperfectShadowMaps>,
     filter: Option<DiscontinuityFilter>,
     shade: wgpu::ComputePipeline,
     shade_group: wgpu::BindGroup,
@@ -177,7 +183,7 @@ fn validate(p: &ParamValues) -> Result<(), String> {
             "depth=0 with direct=raster leaves no VPLs (depth 0 stores VPLs on the lights only)".into()
         );
     }
-    Ok(())
+    super::ism::validate(p, vpls)
 }
 
 fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>, RenderError> {
@@ -238,6 +244,14 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     let chunk_begins: Vec<[u32; 4]> =
         (0..slots_per_set.div_ceil(CHUNK)).map(|c| [c * CHUNK, 0, 0, 0]).collect();
     let chunks = DispatchSlots::new(ctx, "igi chunks", &chunk_begins);
+    let ism_settings = IsmSettings::from_params(p);
+    let ism = match &ism_settings {
+        Some(s) => Some(ImperfectShadowMaps::new(setup, &vpl_buffer, slots_per_set * sets, *s)?),
+        None => None,
+    };
+    // With shadow rays only, the lookup's binding gets a placeholder.
+    let no_ism = ism.is_none().then(|| compute::storage_buffer(ctx, "igi no ism", 4));
+    let ism_atlas = ism.as_ref().map(|m| m.atlas()).or(no_ism.as_ref()).expect("one of the two");
     let gather_layout = compute::layout(
         ctx,
         "igi gather",
@@ -246,6 +260,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
             storage_buffer_entry(1, false),
             storage_buffer_entry(2, false),
             chunks.entry(3),
+            storage_buffer_entry(4, true),
         ],
     );
     let gather_group = compute::bind_group(
@@ -257,17 +272,19 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
             accum.as_entire_binding(),
             clamp_stats.as_entire_binding(),
             chunks.resource(),
+            ism_atlas.as_entire_binding(),
         ],
     );
     let gather = compute::pipeline(
         ctx,
         "igi gather",
-        &format!("{VPL_WGSL}\n{}", include_str!("gather.wgsl")),
-        setup.gpu_scene.bvh_defines(
+        &gather_source(),
+        setup.gpu_scene.bvh_defines(ism::lookup_defines(
             gather_defines(variant, ix, iy, slots_per_set, p.float("g_max") as f32)
                 .bool("COMPENSATE", p.bool("bias_compensation"))
                 .bool("DIRECT_RASTER", direct_raster),
-        ),
+            ism_settings.as_ref(),
+        )),
         "main",
         &[&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &gather_layout],
     )?;
@@ -339,6 +356,9 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     counters.insert("direct_bytes_per_pixel".into(), if direct_raster { 16.0 } else { 0.0 });
     counters.insert("output_bytes_per_pixel".into(), 16.0);
     counters.insert("vpl_bytes".into(), (vpl_count * size_of::<GpuVpl>() as u64) as f64);
+    if let Some(ism) = &ism {
+        counters.extend(ism.counters().map(|(k, v)| (k.to_string(), v)));
+    }
     Ok(Box::new(Igi {
         variant,
         direct,
@@ -346,6 +366,7 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         gather,
         gather_group,
         chunks,
+        ism,
         filter,
         shade,
         shade_group,
@@ -354,6 +375,10 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         width,
         height,
     }))
+}
+
+fn gather_source() -> String {
+    format!("{VPL_WGSL}\n{}\n{}\n{}", ism::PARABOLOID_WGSL, ism::LOOKUP_WGSL, include_str!("gather.wgsl"))
 }
 
 fn gather_defines(variant: Variant, ix: u32, iy: u32, slots_per_set: u32, g_max: f32) -> Defines {
@@ -381,8 +406,13 @@ impl Technique for Igi {
         &mut self,
         ctx: &GpuContext,
         gpu_scene: &crate::gpu::GpuScene,
-        _: super::SceneChange,
+        change: super::SceneChange,
     ) -> Result<bool, RenderError> {
+        if change == super::SceneChange::Geometry
+            && let Some(ism) = &mut self.ism
+        {
+            ism.geometry_moved();
+        }
         Ok(self.light_paths.update_entries(ctx, gpu_scene))
     }
 
@@ -391,6 +421,9 @@ impl Technique for Igi {
             direct.render(fc, profiler)?;
         }
         self.light_paths.dispatch(fc, profiler, "vpl generation")?;
+        if let Some(ism) = &mut self.ism {
+            ism.render(fc, profiler)?;
+        }
         profiler.pass(fc.ctx, "visibility + accumulation", |encoder| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("visibility + accumulation"),

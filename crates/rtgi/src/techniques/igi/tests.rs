@@ -1,20 +1,20 @@
 use super::*;
 use crate::shaders::validate;
 
-fn with_vpl(source: &str) -> String {
-    format!("{VPL_WGSL}\n{source}")
-}
-
 #[test]
 fn shaders_validate() {
-    for variant in [Variant::Classic, Variant::Sh] {
+    let ism = ism::IsmSettings { size: 32, points_per_vpl: 1024, bias: 0.03 };
+    for (variant, ism) in [(Variant::Classic, None), (Variant::Sh, None), (Variant::Classic, Some(&ism))] {
         validate(
             "igi gather",
-            &with_vpl(include_str!("gather.wgsl")),
-            &gather_defines(variant, 4, 4, 64, 10.0)
-                .u32("TILE", 8)
-                .bool("COMPENSATE", true)
-                .bool("DIRECT_RASTER", false),
+            &gather_source(),
+            &ism::lookup_defines(
+                gather_defines(variant, 4, 4, 64, 10.0)
+                    .u32("TILE", 8)
+                    .bool("COMPENSATE", true)
+                    .bool("DIRECT_RASTER", false),
+                ism,
+            ),
         );
         for raster in [false, true] {
             validate("igi shade", include_str!("shade.wgsl"), &shade_defines(variant, raster).u32("TILE", 8));
