@@ -105,8 +105,10 @@ pub fn lookup_defines(defines: Defines, settings: Option<&IsmSettings>) -> Defin
         .f32("ISM_MAX_SLOPE", MAX_SLOPE)
 }
 
-/// Steepest receiver slope (tan θ) the lookup's depth bias follows.
-const MAX_SLOPE: f32 = 4.0;
+/// Steepest receiver slope (tan θ) the lookup's depth bias follows. Measured on two-rooms (1024 VPLs,
+/// 256², the dark room's floor against shadow rays with the same VPLs): 4 let the floor see VPLs
+/// through the wall (24 % too bright), 1 shadowed the floor itself (28 % too dark), 2 gives +0.8 %.
+const MAX_SLOPE: f32 = 2.0;
 
 fn paraboloid_defines(defines: Defines, s: &IsmSettings) -> Defines {
     defines.u32("ISM_SIZE", s.size).u32("ISM_POINTS_PER_VPL", s.points_per_vpl).u32("ISM_POOL", pool_size(s))

@@ -88,10 +88,10 @@ fn imperfect_shadow_maps_agree_with_shadow_rays() {
         "ism against rays: {difference:.4} per pixel, mean ratio {ratio:.4}; \
          without visibility: {shadowing:.4} per pixel, mean ratio {unshadowed_ratio:.4}"
     );
-    // Measured on lavapipe: 0.0291 per pixel and a mean ratio of 1.0077, where leaving visibility out
-    // gives 0.0599 and 1.0574; the bounds are 1.5× and 2× the measurements, and both sit below what
-    // leaving visibility out does.
-    const DIFFERENCE: f64 = 0.045;
+    // Measured on lavapipe: 0.0319 per pixel and a mean ratio of 1.0005 (1.0077 with the slope bias
+    // clamped at 4 instead of 2), where leaving visibility out gives 0.0599 and 1.0574; the bounds are
+    // 1.5× the difference and 2× the larger ratio, and both sit below what leaving visibility out does.
+    const DIFFERENCE: f64 = 0.048;
     const RATIO: f64 = 0.016;
     assert!(
         shadowing > DIFFERENCE && unshadowed_ratio - 1.0 > RATIO,
