@@ -4,8 +4,9 @@
 //!
 //! Per frame: `ism splat` (clear the atlas, then every VPL's subset of the point pool into its map) and
 //! `ism pull-push` (fill the holes); `ism points` (the pool in world space) runs once, and again after
-//! meshes move. The gather reads the atlas through `lookup.wgsl`. What this costs and what it loses
-//! against shadow rays is in docs/measurements/vpl-equal-time-lavapipe.md.
+//! meshes move. The gather reads the atlas through `lookup.wgsl`. What it loses against shadow rays for
+//! the same VPLs is in docs/measurements/ism-lavapipe.md, what it buys at equal time against the path
+//! tracer in docs/measurements/vpl-equal-time-lavapipe.md.
 
 use wgpu::util::DeviceExt;
 
