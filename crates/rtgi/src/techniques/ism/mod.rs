@@ -115,9 +115,9 @@ fn paraboloid_defines(defines: Defines, s: &IsmSettings) -> Defines {
     defines.u32("ISM_SIZE", s.size).u32("ISM_POINTS_PER_VPL", s.points_per_vpl).u32("ISM_POOL", pool_size(s))
 }
 
-fn map_defines(defines: Defines, s: &IsmSettings, scene: &Scene) -> Defines {
+fn map_defines(defines: Defines, s: &IsmSettings, scene: &Scene, total_area: f64) -> Defines {
     paraboloid_defines(defines, s)
-        .f32("ISM_POINT_RADIUS", point_radius(scene, s.points_per_vpl))
+        .f32("ISM_POINT_RADIUS", point_radius(total_area, s.points_per_vpl))
         // Ritschel et al.: thresholds of about 5 % of the scene's extent.
         .f32("ISM_PULL_THRESHOLD", 0.05 * scene.bounds().extent().max_element())
 }
@@ -127,8 +127,8 @@ fn pool_size(s: &IsmSettings) -> u32 {
 }
 
 /// Radius of the disc one point of a VPL's subset stands for: the scene's area shared among the subset.
-fn point_radius(scene: &Scene, points_per_vpl: u32) -> f32 {
-    (total_area(scene) / (std::f64::consts::PI * f64::from(points_per_vpl))).sqrt() as f32
+fn point_radius(total_area: f64, points_per_vpl: u32) -> f32 {
+    (total_area / (std::f64::consts::PI * f64::from(points_per_vpl))).sqrt() as f32
 }
 
 fn triangle_areas(scene: &Scene) -> Vec<f64> {
@@ -142,19 +142,14 @@ fn triangle_areas(scene: &Scene) -> Vec<f64> {
     areas
 }
 
-fn total_area(scene: &Scene) -> f64 {
-    triangle_areas(scene).iter().sum()
-}
-
-/// The point pool: `count` points placed by area over the scene's triangles (in the GPU scene's
+/// The point pool: `count` points placed by area over triangles of `areas` ([`triangle_areas`], the GPU scene's
 /// triangle order), each as (triangle bits, u, v, 0). Triangles are picked by inverting the area CDF at
 /// the base-2 radical inverse and the point inside by the base-3 and base-5 ones, so every window of
 /// consecutive points (a VPL's subset) is stratified over the area.
-pub fn point_pool(scene: &Scene, count: u32) -> Vec<[f32; 4]> {
-    let areas = triangle_areas(scene);
+pub fn point_pool(areas: &[f64], count: u32) -> Vec<[f32; 4]> {
     let mut cdf = Vec::with_capacity(areas.len());
     let mut sum = 0.0;
-    for a in &areas {
+    for a in areas {
         sum += a;
         cdf.push(sum);
     }
@@ -199,14 +194,16 @@ impl ImperfectShadowMaps {
         let atlas_bytes = u64::from(vpl_count) * u64::from(settings.size * settings.size) * 4;
         ctx.check_storage_size("the imperfect shadow map atlas", atlas_bytes)?;
         let atlas = compute::storage_buffer(ctx, "ism atlas", atlas_bytes);
-        let pool_data = point_pool(setup.scene, pool);
+        let areas = triangle_areas(setup.scene);
+        let pool_data = point_pool(&areas, pool);
         let pool_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ism point pool"),
             contents: bytemuck::cast_slice(&pool_data),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let positions = compute::storage_buffer(ctx, "ism point positions", u64::from(pool) * 16);
-        let defines = || map_defines(Defines::new(), &settings, setup.scene);
+        let total_area: f64 = areas.iter().sum();
+        let defines = || map_defines(Defines::new(), &settings, setup.scene, total_area);
         let layouts = |layout| [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, layout];
 
         let points_layout = compute::layout(

@@ -12,7 +12,7 @@ fn shaders_validate() {
     let scene = crate::scene::builtin::build("cornell", &[]).expect("built-in scene");
     for size in [16, 32, 64] {
         let s = IsmSettings { size, ..settings() };
-        let defines = map_defines(Defines::new(), &s, &scene).u32("TILE", 8);
+        let defines = map_defines(Defines::new(), &s, &scene, 1.0).u32("TILE", 8);
         validate("ism points", include_str!("points.wgsl"), &defines);
         validate(
             "ism splat",
@@ -30,7 +30,7 @@ fn the_point_pool_is_spread_by_area() {
     let scene = crate::scene::builtin::build("cornell", &[]).expect("built-in scene");
     let areas = triangle_areas(&scene);
     let total: f64 = areas.iter().sum();
-    let pool = point_pool(&scene, 16384);
+    let pool = point_pool(&areas, 16384);
     for window in [&pool[..], &pool[5000..5000 + 4096]] {
         let mut counts = vec![0usize; areas.len()];
         for p in window {
