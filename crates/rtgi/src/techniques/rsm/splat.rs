@@ -8,6 +8,7 @@ use super::Resolve;
 use super::interleave::{self, AtlasLayout, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
 use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::resources::{self, TextureBuilder};
 use crate::gpu::{GpuContext, Profiler, readback};
 use crate::shaders::{self, Defines};
 use crate::techniques::RenderError;
@@ -37,6 +38,11 @@ pub struct VplParams {
     pub threshold: f32,
 }
 
+/// The tiled splat's VPL table (`vpl_table.wgsl`): layers per VPL (position, normal, intensity,
+/// atlas rectangle), and VPLs to a row at most.
+const VPL_TABLE_LAYERS: u32 = 4;
+const VPL_TABLE_MAX_WIDTH: u32 = 256;
+
 pub const VPL_STRUCT_WGSL: &str = include_str!("vpl_struct.wgsl");
 
 /// The source of the VPL-selection shader.
@@ -59,9 +65,14 @@ pub fn splat_source() -> String {
     splat_shader(include_str!("splat.wgsl"))
 }
 
-/// The source of the tiled compute splat.
+/// The source of the tiled compute splat's set-up passes (VPL rectangles and table, per-tile VPL sets).
+pub fn bins_source() -> String {
+    splat_shader(&format!("{}\n{}", include_str!("vpl_table.wgsl"), include_str!("splat_bins.wgsl")))
+}
+
+/// The source of the tiled compute splat's per-texel pass.
 pub fn tiles_source() -> String {
-    splat_shader(include_str!("splat_tiles.wgsl"))
+    splat_shader(&format!("{}\n{}", include_str!("vpl_table.wgsl"), include_str!("splat_tiles.wgsl")))
 }
 
 /// How VPLs reach the atlas (parameter `splat`).
@@ -73,7 +84,8 @@ enum Splatting {
         rects: wgpu::ComputePipeline,
         bins: wgpu::ComputePipeline,
         tiles: wgpu::ComputePipeline,
-        group: wgpu::BindGroup,
+        set_up_group: wgpu::BindGroup,
+        per_texel_group: wgpu::BindGroup,
         /// Tiles across and down the atlas, 32-VPL words per tile.
         grid: [u32; 3],
     },
@@ -302,40 +314,84 @@ impl Splat {
         }
         let rects = compute::storage_buffer(ctx, "splat rects", u64::from(count) * 16);
         let bins = compute::storage_buffer(ctx, "splat tile sets", bin_bytes);
-        let mut entries = vec![
-            compute::storage_buffer_entry(0, true),
-            compute::storage_buffer_entry(1, false),
-            compute::storage_buffer_entry(2, false),
-            compute::storage_texture_entry(
-                3,
-                wgpu::TextureFormat::Rgba32Float,
-                wgpu::StorageTextureAccess::WriteOnly,
-            ),
-        ];
-        entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
-        let layout = compute::layout(ctx, "splat tiles", &entries);
-        let group = split.bind_group(
-            ctx,
-            "splat tiles",
-            &layout,
-            &[
-                vpl_buffer.as_entire_binding(),
-                rects.as_entire_binding(),
-                bins.as_entire_binding(),
-                wgpu::BindingResource::TextureView(atlas_view),
-            ],
-        );
-        let defines = defines.u32("VPL_COUNT", count).u32("BIN_WORDS", words).u32("TILES_X", tiles_x);
-        let layouts =
-            [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout, &rsm.layout];
-        let source = tiles_source();
-        let pipeline =
-            |entry: &str| compute::pipeline(ctx, "splat tiles", &source, defines.clone(), entry, &layouts);
+        let table_width = count.min(VPL_TABLE_MAX_WIDTH);
+        let table = TextureBuilder::d2_array(
+            "splat vpl table",
+            table_width,
+            count.div_ceil(table_width),
+            VPL_TABLE_LAYERS,
+            wgpu::TextureFormat::Rgba32Float,
+        )
+        .storage()
+        .sampled()
+        .build(ctx)?;
+        let table_view = table.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        // The set-up passes write the rectangles, sets and VPL table; the per-texel pass reads the sets
+        // and the table (a binding's access must match its layout's).
+        let group = |label: &str, set_up: bool| {
+            let table_entry = if set_up {
+                resources::storage_texture_layout_entry(
+                    4,
+                    wgpu::TextureFormat::Rgba32Float,
+                    wgpu::StorageTextureAccess::WriteOnly,
+                    wgpu::TextureViewDimension::D2Array,
+                )
+            } else {
+                resources::texture_layout_entry(
+                    4,
+                    wgpu::TextureSampleType::Float { filterable: false },
+                    wgpu::TextureViewDimension::D2Array,
+                )
+            };
+            let mut entries = vec![
+                compute::storage_buffer_entry(0, true),
+                compute::storage_buffer_entry(1, !set_up),
+                compute::storage_buffer_entry(2, !set_up),
+                compute::storage_texture_entry(
+                    3,
+                    wgpu::TextureFormat::Rgba32Float,
+                    wgpu::StorageTextureAccess::WriteOnly,
+                ),
+                table_entry,
+            ];
+            entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
+            let layout = compute::layout(ctx, label, &entries);
+            let group = split.bind_group(
+                ctx,
+                label,
+                &layout,
+                &[
+                    vpl_buffer.as_entire_binding(),
+                    rects.as_entire_binding(),
+                    bins.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(atlas_view),
+                    wgpu::BindingResource::TextureView(&table_view),
+                ],
+            );
+            (layout, group)
+        };
+        let (set_up_layout, set_up_group) = group("splat tile sets", true);
+        let (per_texel_layout, per_texel_group) = group("splat tiles", false);
+        let defines = defines
+            .u32("VPL_COUNT", count)
+            .u32("BIN_WORDS", words)
+            .u32("TILES_X", tiles_x)
+            .u32("VPL_TABLE_WIDTH", table_width);
+        let pipeline = |source: &str, entry: &str, layout: &wgpu::BindGroupLayout| {
+            let layouts =
+                [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, layout, &rsm.layout];
+            compute::pipeline(ctx, "splat tiles", source, defines.clone(), entry, &layouts)
+        };
+        let (set_up, per_texel) = (bins_source(), tiles_source());
         Ok(Splatting::Tiles {
-            rects: pipeline("splat_rects")?,
-            bins: pipeline("splat_bins")?,
-            tiles: pipeline("splat_tiles")?,
-            group,
+            rects: pipeline(&set_up, "splat_rects", &set_up_layout)?,
+            bins: pipeline(&set_up, "splat_bins", &set_up_layout)?,
+            tiles: pipeline(&per_texel, "splat_tiles", &per_texel_layout)?,
+            set_up_group,
+            per_texel_group,
             grid: [tiles_x, tiles_y, words],
         })
     }
@@ -359,8 +415,15 @@ impl Splat {
                 pass.set_bind_group(3, &self.rsm.bind_group, &[]);
                 pass.draw(0..6, 0..self.params.count);
             }
-            Splatting::Tiles { rects, bins, tiles, group, grid: [tiles_x, tiles_y, words] } => {
-                let groups = [scene, frame, group, &self.rsm.bind_group];
+            Splatting::Tiles {
+                rects,
+                bins,
+                tiles,
+                set_up_group,
+                per_texel_group,
+                grid: [tiles_x, tiles_y, words],
+            } => {
+                let groups = [scene, frame, set_up_group, &self.rsm.bind_group];
                 compute::dispatch(e, "splat rects", rects, &groups, [self.params.count.div_ceil(64), 1, 1]);
                 compute::dispatch(
                     e,
@@ -369,6 +432,7 @@ impl Splat {
                     &groups,
                     [words.div_ceil(64), *tiles_x, *tiles_y],
                 );
+                let groups = [scene, frame, per_texel_group, &self.rsm.bind_group];
                 compute::dispatch(e, "splat tiles", tiles, &groups, [*tiles_x, *tiles_y, 1]);
             }
         }

@@ -5,38 +5,20 @@
 // each adds where its rectangle covers the texel and its sphere holds the surface — the texels, values
 // and order of the raster splat's additive blending, so the images agree.
 
-@group(2) @binding(1) var<storage, read_write> rects: array<vec4f>;
-@group(2) @binding(2) var<storage, read_write> bins: array<u32>;
+@group(2) @binding(2) var<storage, read> bins: array<u32>;
 @group(2) @binding(3) var atlas_out: texture_storage_2d<rgba32float, write>;
+// The VPLs and their rectangles, copied by `splat_rects` (`splat_bins.wgsl`): read inside the VPL loop,
+// where lavapipe loads a storage buffer lane by lane (about 3x the cost of the whole VPL's shading)
+// but fetches a texture for all lanes at once.
+@group(2) @binding(4) var vpl_table: texture_2d_array<f32>;
 
-@compute @workgroup_size(64, 1, 1)
-fn splat_rects(@builtin(global_invocation_id) id: vec3u) {
-    if id.x < VPL_COUNT {
-        rects[id.x] = splat_atlas_rect(vpls[id.x]);
-    }
-}
-
-// Invocation (word, tile x, tile y).
-@compute @workgroup_size(64, 1, 1)
-fn splat_bins(@builtin(global_invocation_id) id: vec3u) {
-    let word = id.x;
-    if word >= BIN_WORDS {
-        return;
-    }
-    let tile_lo = vec2f(vec2u(id.y, id.z) * TILE);
-    let tile_hi = tile_lo + f32(TILE);
-    var bits = 0u;
-    for (var b = 0u; b < 32u; b++) {
-        let k = word * 32u + b;
-        if k >= VPL_COUNT {
-            break;
-        }
-        let r = rects[k];
-        if all(r.xy < tile_hi) && all(r.zw > tile_lo) {
-            bits |= 1u << b;
-        }
-    }
-    bins[(id.y + id.z * TILES_X) * BIN_WORDS + word] = bits;
+fn table_vpl(k: u32) -> Vpl {
+    let texel = vpl_table_texel(k);
+    let position = textureLoad(vpl_table, texel, VPL_TABLE_POSITION, 0);
+    let normal = textureLoad(vpl_table, texel, VPL_TABLE_NORMAL, 0);
+    let intensity = textureLoad(vpl_table, texel, VPL_TABLE_INTENSITY, 0);
+    // The subset is not needed here: the rectangle already lies in the VPL's sub-buffer.
+    return Vpl(position.xyz, position.w, normal.xyz, normal.w, intensity.rgb, 0u);
 }
 
 @compute @workgroup_size(TILE, TILE, 1)
@@ -64,9 +46,9 @@ fn splat_tiles(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) 
         while bits != 0u {
             let k = word * 32u + firstTrailingBit(bits);
             bits &= bits - 1u;
-            let r = rects[k];
+            let r = textureLoad(vpl_table, vpl_table_texel(k), VPL_TABLE_RECT, 0);
             if all(centre >= r.xy) && all(centre < r.zw) {
-                let v = vpls[k];
+                let v = table_vpl(k);
                 if splat_reaches(s, v) {
                     sum += splat_radiance(s, v);
                     count += 1.0;

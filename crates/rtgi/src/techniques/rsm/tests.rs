@@ -73,16 +73,19 @@ fn shaders_validate() {
         &splat::splat_source(),
         &atlas_defines(&l).bool("SPLIT_GBUFFER", true).f32("SCALE", 8.0),
     );
-    validate(
-        "splat tiles",
-        &splat::tiles_source(),
-        &atlas_defines(&l)
-            .bool("SPLIT_GBUFFER", true)
-            .f32("SCALE", 8.0)
-            .u32("VPL_COUNT", 100)
-            .u32("BIN_WORDS", 4)
-            .u32("TILES_X", 3),
-    );
+    for (name, source) in [("splat bins", splat::bins_source()), ("splat tiles", splat::tiles_source())] {
+        validate(
+            name,
+            &source,
+            &atlas_defines(&l)
+                .bool("SPLIT_GBUFFER", true)
+                .f32("SCALE", 8.0)
+                .u32("VPL_COUNT", 100)
+                .u32("BIN_WORDS", 4)
+                .u32("TILES_X", 3)
+                .u32("VPL_TABLE_WIDTH", 64),
+        );
+    }
 }
 
 /// The adapter check (`gpu::context::REQUIRED_FORMAT_USAGES`) asks for the RSM's render targets.
