@@ -6,6 +6,7 @@ pub mod dispatch;
 pub mod display;
 pub mod features;
 pub mod kernel;
+pub mod linear_texture;
 pub mod mips;
 pub mod profiler;
 pub mod readback;

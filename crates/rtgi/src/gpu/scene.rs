@@ -402,8 +402,22 @@ fn texture_layout_entry(
     }
 }
 
+/// The BVH's node and triangle textures (`common/bvh.wgsl`), read with `textureLoad`.
+fn bvh_texture_layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 /// Storage buffers in bind group 0, visible to every stage: the least any adapter must bind per stage.
-pub const SCENE_STORAGE_BUFFERS: u32 = 10;
+pub const SCENE_STORAGE_BUFFERS: u32 = 8;
 
 /// The entries of bind group 0 (`common/scene.wgsl`).
 fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
@@ -414,8 +428,8 @@ fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
         storage_layout_entry(2),
         storage_layout_entry(3),
         storage_layout_entry(4),
-        storage_layout_entry(5),
-        storage_layout_entry(6),
+        bvh_texture_layout_entry(5),
+        bvh_texture_layout_entry(6),
         storage_layout_entry(7),
         texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, true),
         texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, true),
@@ -876,6 +890,8 @@ impl GpuScene {
         };
         let make_bind_group = |env: &wgpu::Texture, env_cdf: &wgpu::Buffer| {
             let env_view = env.create_view(&Default::default());
+            let [bvh_nodes, bvh_tris, bvh_instances] = gpu_bvh.bind_entries(5);
+            let bvh_instances = wgpu::BindGroupEntry { binding: 14, ..bvh_instances };
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("scene"),
                 layout: &layout,
@@ -885,8 +901,8 @@ impl GpuScene {
                     wgpu::BindGroupEntry { binding: 2, resource: index_buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 3, resource: material_buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 4, resource: light_buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: gpu_bvh.nodes.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 6, resource: gpu_bvh.triangles.as_entire_binding() },
+                    bvh_nodes,
+                    bvh_tris,
                     wgpu::BindGroupEntry { binding: 7, resource: emissive_buffer.as_entire_binding() },
                     wgpu::BindGroupEntry {
                         binding: 8,
@@ -903,7 +919,7 @@ impl GpuScene {
                     },
                     wgpu::BindGroupEntry { binding: 12, resource: emission_pdf_buffer.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 13, resource: env_cdf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 14, resource: gpu_bvh.instances.as_entire_binding() },
+                    bvh_instances,
                 ],
             })
         };
@@ -932,9 +948,7 @@ impl GpuScene {
             + emission_pdf_buffer.size()
             + env_cdf_buffer.size()
             + info_buffer.size()
-            + gpu_bvh.nodes.size()
-            + gpu_bvh.triangles.size()
-            + gpu_bvh.instances.size()
+            + gpu_bvh.bytes()
             + textures.bytes
             + (env_texels.2.len() * 4) as u64;
         let environment_power = match info.env_kind {

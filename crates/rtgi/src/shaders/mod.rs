@@ -13,6 +13,7 @@ use std::fmt::Write as _;
 /// The shared WGSL library, embedded in the binary.
 pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/math.wgsl", include_str!("common/math.wgsl")),
+    ("common/linear_texture.wgsl", include_str!("common/linear_texture.wgsl")),
     ("common/random.wgsl", include_str!("common/random.wgsl")),
     ("common/bvh.wgsl", include_str!("common/bvh.wgsl")),
     ("common/color.wgsl", include_str!("common/color.wgsl")),

@@ -37,8 +37,8 @@ struct TestResult {
     _pad2: u32,
 }
 
-@group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(1) var<storage, read> bvh_tris: array<vec4f>;
+@group(0) @binding(0) var bvh_nodes: texture_2d<u32>;
+@group(0) @binding(1) var bvh_tris: texture_2d<u32>;
 @group(0) @binding(2) var<storage, read> bvh_instances: array<BvhInstance>;
 @group(0) @binding(3) var<storage, read> rays: array<TestRay>;
 @group(0) @binding(4) var<storage, read_write> results: array<TestResult>;
@@ -421,8 +421,8 @@ const ARITHMETIC_KERNEL: &str = r#"
 #import common/bvh.wgsl
 
 // bvh.wgsl's contract; unused here.
-@group(1) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(1) @binding(1) var<storage, read> bvh_tris: array<vec4f>;
+@group(1) @binding(0) var bvh_nodes: texture_2d<u32>;
+@group(1) @binding(1) var bvh_tris: texture_2d<u32>;
 @group(1) @binding(2) var<storage, read> bvh_instances: array<BvhInstance>;
 fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool {
     return true;
@@ -603,21 +603,19 @@ fn bvh_gpu_empty_bvh_misses() {
 }
 
 #[test]
-fn bvh_gpu_upload_over_limit_names_the_buffer() {
+fn bvh_gpu_upload_over_limit_names_the_texture() {
     let ctx = context();
-    let limit = ctx.limits().max_storage_buffer_binding_size;
-    // A node array just over the limit, without building anything that large.
-    let n = (limit / 32 + 1) as usize;
-    let bvh = Bvh {
-        nodes: vec![bytemuck::Zeroable::zeroed(); n],
-        triangles: vec![build::EMPTY_TRIANGLE],
-        instances: Vec::new(),
-        max_depth: 0,
-    };
-    match GpuBvh::new(&ctx, &bvh) {
-        Err(GpuError::OverLimit(m)) => assert!(m.contains("BVH node buffer"), "{m}"),
+    let rows = u64::from(ctx.limits().max_texture_dimension_2d);
+    let texels = rows * u64::from(crate::gpu::linear_texture::TEXELS_PER_ROW);
+    // The largest texture that fits, and one texel more, without building anything that large.
+    let check = |texels| crate::gpu::linear_texture::check(&ctx, "BVH node texture", texels, 16);
+    check(texels).expect("a full texture fits");
+    match check(texels + 1) {
+        Err(GpuError::OverLimit(m)) => {
+            assert!(m.contains("BVH node texture") && m.contains("max_texture_dimension_2d"), "{m}")
+        }
         Err(e) => panic!("expected OverLimit, got {e}"),
-        Ok(_) => panic!("a {n}-node BVH fit a {limit}-byte binding"),
+        Ok(()) => panic!("{} texels fit {rows} rows", texels + 1),
     }
 }
 

@@ -43,7 +43,7 @@ use bytemuck::Zeroable;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-use super::{GpuContext, GpuError};
+use super::{GpuContext, GpuError, linear_texture};
 use crate::scene::{AlphaMode, Scene};
 
 pub use instances::{InstancedBvh, TopLevel};
@@ -347,11 +347,20 @@ impl Bvh {
     }
 }
 
-/// The BVH on the GPU: the storage buffers `bvh.wgsl` expects as `bvh_nodes`, `bvh_tris` and
-/// `bvh_instances`.
+/// Bytes of one texel of the node and triangle textures (rgba32uint).
+const BVH_TEXEL_BYTES: usize = 16;
+/// Texels per node and per triangle (`BVH_NODE_TEXELS`, `BVH_TRIANGLE_TEXELS` in `bvh.wgsl`).
+pub const BVH_NODE_TEXELS: usize = size_of::<BvhNode>() / BVH_TEXEL_BYTES;
+pub const BVH_TRIANGLE_TEXELS: usize = size_of::<BvhTriangle>() / BVH_TEXEL_BYTES;
+
+/// The BVH on the GPU, as `bvh.wgsl` expects it: `bvh_nodes` and `bvh_tris` as linear textures of
+/// 16-byte texels (the arrays' bytes in order, see [`linear_texture`], which says why textures),
+/// `bvh_instances` as a storage buffer.
 pub struct GpuBvh {
-    pub nodes: wgpu::Buffer,
-    pub triangles: wgpu::Buffer,
+    pub nodes: wgpu::Texture,
+    pub triangles: wgpu::Texture,
+    nodes_view: wgpu::TextureView,
+    triangles_view: wgpu::TextureView,
     /// At least one entry (zeroed and never read for a single-level BVH): no binding is zero-sized.
     pub instances: wgpu::Buffer,
     pub node_count: u32,
@@ -359,42 +368,36 @@ pub struct GpuBvh {
 }
 
 impl GpuBvh {
-    /// Uploads `bvh`; fails with [`GpuError::OverLimit`] naming the buffer if it exceeds the device.
+    /// Uploads `bvh`; fails with [`GpuError::OverLimit`] naming the texture if it exceeds the device.
     pub fn new(ctx: &GpuContext, bvh: &Bvh) -> Result<GpuBvh, GpuError> {
         let nodes: &[u8] = bytemuck::cast_slice(&bvh.nodes);
         let tris: &[u8] = bytemuck::cast_slice(&bvh.triangles);
-        let max_buffer = ctx.limits().max_buffer_size;
-        for (what, bytes) in [("BVH node buffer", nodes.len()), ("BVH triangle buffer", tris.len())] {
-            ctx.check_storage_size(what, bytes as u64)?;
-            if bytes as u64 > max_buffer {
-                return Err(GpuError::OverLimit(format!(
-                    "{what} needs {:.1} MiB, over the device's max_buffer_size of {:.1} MiB",
-                    bytes as f64 / 1048576.0,
-                    max_buffer as f64 / 1048576.0
-                )));
-            }
+        let texels = |bytes: &[u8]| (bytes.len() / BVH_TEXEL_BYTES) as u64;
+        let format = wgpu::TextureFormat::Rgba32Uint;
+        for (what, bytes) in [("BVH node texture", nodes), ("BVH triangle texture", tris)] {
+            linear_texture::check(ctx, what, texels(bytes), BVH_TEXEL_BYTES as u32)?;
         }
         // Allocation failures are reported asynchronously by wgpu; the scope turns them into a result.
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        let create = |label, contents| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
-        let node_buffer = create("bvh nodes", nodes);
-        let tri_buffer = create("bvh triangles", tris);
+        let node_texture = linear_texture::create(ctx, "bvh nodes", format, texels(nodes))?;
+        linear_texture::write(ctx, &node_texture, nodes);
+        let tri_texture = linear_texture::create(ctx, "bvh triangles", format, texels(tris))?;
+        linear_texture::write(ctx, &tri_texture, tris);
         let placeholder = [BvhInstance::zeroed()];
         let instances = if bvh.instances.is_empty() { &placeholder[..] } else { &bvh.instances[..] };
-        let instance_buffer = create("bvh instances", bytemuck::cast_slice(instances));
+        let instance_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("bvh instances"),
+            contents: bytemuck::cast_slice(instances),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        });
         if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Other(format!("allocating the BVH buffers: {e}")));
+            return Err(GpuError::Other(format!("allocating the BVH: {e}")));
         }
         Ok(GpuBvh {
-            nodes: node_buffer,
-            triangles: tri_buffer,
+            nodes_view: node_texture.create_view(&Default::default()),
+            triangles_view: tri_texture.create_view(&Default::default()),
+            nodes: node_texture,
+            triangles: tri_texture,
             instances: instance_buffer,
             node_count: bvh.nodes.len() as u32,
             triangle_count: bvh.triangles.len() as u32,
@@ -403,18 +406,29 @@ impl GpuBvh {
 
     /// Writes the top level and instances of `bvh` (placed anew) over those uploaded from it.
     pub fn update_top_level(&self, ctx: &GpuContext, top: &TopLevel) {
-        ctx.queue.write_buffer(&self.nodes, 0, bytemuck::cast_slice(&top.nodes));
+        linear_texture::write(ctx, &self.nodes, bytemuck::cast_slice(&top.nodes));
         if !top.instances.is_empty() {
             ctx.queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&top.instances));
         }
     }
 
+    /// Bytes of GPU memory the BVH takes (textures with their last rows' padding, and instances).
+    pub fn bytes(&self) -> u64 {
+        linear_texture::bytes(&self.nodes) + linear_texture::bytes(&self.triangles) + self.instances.size()
+    }
+
     /// Bind group entries for `bvh_nodes`, `bvh_tris` and `bvh_instances` at `first_binding` and the
-    /// two bindings after it (storage, read-only).
+    /// two bindings after it.
     pub fn bind_entries(&self, first_binding: u32) -> [wgpu::BindGroupEntry<'_>; 3] {
         [
-            wgpu::BindGroupEntry { binding: first_binding, resource: self.nodes.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: first_binding + 1, resource: self.triangles.as_entire_binding() },
+            wgpu::BindGroupEntry {
+                binding: first_binding,
+                resource: wgpu::BindingResource::TextureView(&self.nodes_view),
+            },
+            wgpu::BindGroupEntry {
+                binding: first_binding + 1,
+                resource: wgpu::BindingResource::TextureView(&self.triangles_view),
+            },
             wgpu::BindGroupEntry { binding: first_binding + 2, resource: self.instances.as_entire_binding() },
         ]
     }

@@ -392,6 +392,8 @@ fn bvh_wgsl_constants_match_rust() {
         .expect("bvh.wgsl is registered");
     for line in [
         format!("const BVH_STACK_SIZE: u32 = {BVH_STACK_SIZE}u;"),
+        format!("const BVH_NODE_TEXELS: u32 = {BVH_NODE_TEXELS}u;"),
+        format!("const BVH_TRIANGLE_TEXELS: u32 = {BVH_TRIANGLE_TEXELS}u;"),
         format!("const BVH_FLAG_ALPHA_TESTED: u32 = {BVH_FLAG_ALPHA_TESTED}u;"),
         format!("const BVH_EMPTY_CHILD: u32 = {BVH_EMPTY_CHILD:#x}u;"),
         format!("const BVH_BOX_EXIT_SCALE: f32 = {:?};", traverse::BOX_EXIT_SCALE),

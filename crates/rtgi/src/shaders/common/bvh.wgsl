@@ -5,13 +5,15 @@
 // CONTRACT WITH THE INCLUDING SHADER. This module declares no bindings (each technique picks its own
 // group and binding numbers); the includer must declare, with exactly these names:
 //
-//   @group(G) @binding(B)     var<storage, read> bvh_nodes: array<BvhNode>;          // GpuBvh::nodes
-//   @group(G) @binding(B + 1) var<storage, read> bvh_tris: array<vec4f>;             // GpuBvh::triangles
+//   @group(G) @binding(B)     var bvh_nodes: texture_2d<u32>;                          // GpuBvh::nodes
+//   @group(G) @binding(B + 1) var bvh_tris: texture_2d<u32>;                           // GpuBvh::triangles
 //   @group(G) @binding(C)     var<storage, read> bvh_instances: array<BvhInstance>;  // GpuBvh::instances
 //   fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool
 //
-// bvh_tris holds 3 vec4f per triangle: v0.xyz + original triangle index (u32 bits), v1.xyz + flags
-// (u32 bits, bit 0 = alpha-tested), v2.xyz + padding. bvh_alpha_test is called only for hits on
+// Nodes and triangles are linear textures of 16-byte texels (common/linear_texture.wgsl): 4 per node (the BvhNode struct's bytes), 3 per triangle: v0.xyz +
+// original triangle index (u32 bits), v1.xyz + flags (u32 bits, bit 0 = alpha-tested), v2.xyz +
+// padding. Textures rather than storage buffers because the traversal loads inside its loop
+// (gpu/linear_texture.rs says why that matters). bvh_alpha_test is called only for hits on
 // triangles flagged alpha-tested, with the original (global) triangle index and the barycentrics of
 // v1 and v2; it returns true for an opaque hit. Shaders without alpha-masked materials can simply
 // `return true;`.
@@ -31,6 +33,7 @@
 // normalised). A miss is `hit.triangle == BVH_NO_HIT`, with hit.t = FLT_MAX.
 
 #import common/math.wgsl
+#import common/linear_texture.wgsl
 
 // Twice the binary tree's depth limit, which bounds the deferred children of a path (BVH_STACK_SIZE
 // in gpu/bvh/mod.rs, which explains; a test checks they agree).
@@ -39,6 +42,8 @@ const BVH_NO_HIT: u32 = 0xffffffffu;
 const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
 const BVH_INSTANCE_LEAF: u32 = 7u;
 const BVH_EMPTY_CHILD: u32 = 0xffffffffu;
+const BVH_NODE_TEXELS: u32 = 4u;
+const BVH_TRIANGLE_TEXELS: u32 = 3u;
 // Box exit distances are scaled by 1 + 16u (u = 2^-24) so rounding never culls a box the ray touches,
 // e.g. one whose face holds a triangle (Ize 2013, "Robust BVH Ray Traversal", whose 1 + 2γ₃ assumes a
 // correctly rounded 1/dir). WGSL only promises 2.5 ulp (≤ 5u) for a division, so a slab distance
@@ -81,6 +86,20 @@ struct BvhInstance {
     row1: vec4f,
     row2: vec4f,
     root: u32,
+}
+
+fn bvh_node(i: u32) -> BvhNode {
+    let first = BVH_NODE_TEXELS * i;
+    let a = textureLoad(bvh_nodes, linear_texel(first), 0);
+    let children = textureLoad(bvh_nodes, linear_texel(first + 1u), 0);
+    let lo = textureLoad(bvh_nodes, linear_texel(first + 2u), 0);
+    let hi = textureLoad(bvh_nodes, linear_texel(first + 3u), 0);
+    return BvhNode(bitcast<vec3f>(a.xyz), a.w, children, lo.xyz, lo.w, hi.xyz);
+}
+
+// Texel j (0..3) of triangle i (BVH order), as the floats it holds.
+fn bvh_triangle_texel(i: u32, j: u32) -> vec4f {
+    return bitcast<vec4f>(textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + j), 0));
 }
 
 fn hit_found(hit: Hit) -> bool {
@@ -272,9 +291,9 @@ fn bvh_sort_children(entry: vec4f, children: vec4u) -> BvhChildren {
 // double-precision fallback does not exist in WGSL): no gaps, at worst a double hit.
 fn bvh_triangle(r: BvhRay, i: u32, tmin: f32, tmax: f32) -> vec4f {
     let miss = vec4f(0.0);
-    let a = bvh_project(bvh_tris[3u * i].xyz, r);
-    let b = bvh_project(bvh_tris[3u * i + 1u].xyz, r);
-    let c = bvh_project(bvh_tris[3u * i + 2u].xyz, r);
+    let a = bvh_project(bvh_triangle_texel(i, 0u).xyz, r);
+    let b = bvh_project(bvh_triangle_texel(i, 1u).xyz, r);
+    let c = bvh_project(bvh_triangle_texel(i, 2u).xyz, r);
     // Lanes: edges b → c, c → a, a → b, i.e. the weights of a, b, c (the paper's U, V, W).
     let e = bvh_edges(vec3f(b.x, c.x, a.x), vec3f(b.y, c.y, a.y), vec3f(c.x, a.x, b.x), vec3f(c.y, a.y, b.y));
     if any(e < vec3f(0.0)) && any(e > vec3f(0.0)) {
@@ -295,11 +314,11 @@ fn bvh_triangle(r: BvhRay, i: u32, tmin: f32, tmax: f32) -> vec4f {
 // Whether a candidate hit on triangle `i` (BVH order) counts, asking the includer for alpha-tested
 // triangles.
 fn bvh_accept(i: u32, u: f32, v: f32) -> bool {
-    let flags = bitcast<u32>(bvh_tris[3u * i + 1u].w);
+    let flags = textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + 1u), 0).w;
     if (flags & BVH_FLAG_ALPHA_TESTED) == 0u {
         return true;
     }
-    return bvh_alpha_test(bitcast<u32>(bvh_tris[3u * i].w), u, v);
+    return bvh_alpha_test(textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i), 0).w, u, v);
 }
 
 // The traversal stack: deferred children and (closest hit) their entry distances, skipped when a
@@ -363,13 +382,13 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
             let h = bvh_triangle(r, first, tmin, t_best);
             if h.w != 0.0 && bvh_accept(first, h.y, h.z) {
                 t_best = h.x;
-                hit = Hit(h.x, bitcast<u32>(bvh_tris[3u * first].w), h.y, h.z);
+                hit = Hit(h.x, textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * first), 0).w, h.y, h.z);
             }
             current = bvh_leaf_rest(current);
             have_current = count > 1u;
             continue;
         }
-        let node = bvh_nodes[first];
+        let node = bvh_node(first);
         let s = bvh_sort_children(bvh_children_entry(node, r, tmin, t_best), node.children);
         // The nearest child next, the others deferred far to near.
         if s.t.w < FLT_MAX {
@@ -441,7 +460,7 @@ fn trace_any_from(ray: Ray, start_ray: BvhRay, start: u32, tmin: f32, tmax: f32)
             have_current = count > 1u;
             continue;
         }
-        let node = bvh_nodes[first];
+        let node = bvh_node(first);
         // Any order finds an occluder; nearest first is the closest-hit code.
         let s = bvh_sort_children(bvh_children_entry(node, r, tmin, tmax), node.children);
         if s.t.w < FLT_MAX {

@@ -22,6 +22,7 @@
 #import common/color.wgsl
 #import common/random.wgsl
 #import common/sampling.wgsl
+#import common/linear_texture.wgsl
 
 @group(2) @binding(0) var<storage, read> vpls: array<Vpl>;
 @group(2) @binding(1) var<storage, read_write> accum: array<vec2u>;
@@ -29,7 +30,20 @@
 @group(2) @binding(2) var<storage, read_write> clamp_stats: array<vec4f>;
 @group(2) @binding(3) var<uniform> chunk: Chunk;
 // The VPLs' imperfect shadow maps (ism/lookup.wgsl), with visibility=ism; a placeholder otherwise.
-@group(2) @binding(4) var<storage, read> ism_depths: array<f32>;
+@group(2) @binding(4) var ism_maps: texture_2d<f32>;
+// The VPLs again, copied into a linear texture (5 texels each) for the loops over them: see
+// gpu/linear_texture.rs.
+@group(2) @binding(5) var vpl_table: texture_2d<u32>;
+
+fn table_vpl(k: u32) -> Vpl {
+    let first = 5u * k;
+    let a = textureLoad(vpl_table, linear_texel(first), 0);
+    let b = textureLoad(vpl_table, linear_texel(first + 1u), 0);
+    let c = bitcast<vec4f>(textureLoad(vpl_table, linear_texel(first + 2u), 0));
+    let d = bitcast<vec4f>(textureLoad(vpl_table, linear_texel(first + 3u), 0));
+    let e = bitcast<vec4f>(textureLoad(vpl_table, linear_texel(first + 4u), 0));
+    return Vpl(bitcast<vec3f>(a.xyz), a.w, bitcast<vec3f>(b.xyz), b.w, c.xyz, c.w, d.xyz, d.w, e.xyz, e.w);
+}
 
 struct Chunk {
     begin: u32,
@@ -44,7 +58,7 @@ fn outgoing_from_vpls(y: SurfaceHit, dir: vec3f, first: u32, last: u32, with_emi
     var l = select(vec3f(0.0), y.material.emission, with_emission);
     let origin = offset_origin(y.position, y.geometric_normal);
     for (var k = first; k < last; k++) {
-        let v = vpls[k];
+        let v = table_vpl(k);
         if v.kind == VPL_EMPTY {
             continue;
         }
@@ -114,7 +128,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         var sh: array<vec3f, 9>;
         var radiance = vec3f(0.0);
         for (var k = first; k < last; k++) {
-            let v = vpls[k];
+            let v = table_vpl(k);
             if v.kind == VPL_EMPTY {
                 continue;
             }

@@ -11,7 +11,7 @@
 use std::collections::BTreeMap;
 
 use crate::frame::OUTPUT_FORMAT;
-use crate::gpu::{GpuContext, Profiler, readback};
+use crate::gpu::{GpuContext, Profiler, linear_texture, readback};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
 use crate::techniques::RenderError;
@@ -147,6 +147,9 @@ struct Igi {
     light_paths: LightPaths,
     gather: wgpu::ComputePipeline,
     gather_group: wgpu::BindGroup,
+    vpl_buffer: wgpu::Buffer,
+    /// This frame's VPLs copied into a linear texture for the gather's loop (`table_vpl` in gather.wgsl).
+    vpl_table: wgpu::Texture,
     chunks: DispatchSlots,
     ism: Option<ImperfectShadowMaps>,
     filter: Option<DiscontinuityFilter>,
@@ -222,6 +225,15 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     let vpl_count = u64::from(slots_per_set * sets);
     ctx.check_storage_size("the VPL buffer", vpl_count * size_of::<GpuVpl>() as u64)?;
     let vpl_buffer = compute::storage_buffer(ctx, "vpls", vpl_count * size_of::<GpuVpl>() as u64);
+    // table_vpl in gather.wgsl reads a VPL as five texels.
+    const _: () = assert!(size_of::<GpuVpl>() == 5 * 16);
+    let vpl_table = linear_texture::create(
+        ctx,
+        "igi vpl table",
+        wgpu::TextureFormat::Rgba32Uint,
+        vpl_count * (size_of::<GpuVpl>() / 16) as u64,
+    )?;
+    let vpl_table_view = vpl_table.create_view(&Default::default());
 
     // VPL generation.
     let light_paths = LightPaths::new(setup, &vpl_buffer, sets, slots_per_set, depth, layout.as_ref())?;
@@ -250,8 +262,14 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         None => None,
     };
     // With shadow rays only, the lookup's binding gets a placeholder.
-    let no_ism = ism.is_none().then(|| compute::storage_buffer(ctx, "igi no ism", 4));
-    let ism_atlas = ism.as_ref().map(|m| m.atlas()).or(no_ism.as_ref()).expect("one of the two");
+    let no_ism = match &ism {
+        Some(_) => None,
+        None => Some(
+            linear_texture::create(ctx, "igi no ism", wgpu::TextureFormat::R32Float, 1)?
+                .create_view(&Default::default()),
+        ),
+    };
+    let ism_maps = ism.as_ref().map(|m| m.maps()).or(no_ism.as_ref()).expect("one of the two");
     let gather_layout = compute::layout(
         ctx,
         "igi gather",
@@ -260,7 +278,8 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
             storage_buffer_entry(1, false),
             storage_buffer_entry(2, false),
             chunks.entry(3),
-            storage_buffer_entry(4, true),
+            compute::texture_entry(4, wgpu::TextureSampleType::Float { filterable: false }),
+            compute::texture_entry(5, wgpu::TextureSampleType::Uint),
         ],
     );
     let gather_group = compute::bind_group(
@@ -272,7 +291,8 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
             accum.as_entire_binding(),
             clamp_stats.as_entire_binding(),
             chunks.resource(),
-            ism_atlas.as_entire_binding(),
+            wgpu::BindingResource::TextureView(ism_maps),
+            wgpu::BindingResource::TextureView(&vpl_table_view),
         ],
     );
     let gather = compute::pipeline(
@@ -365,6 +385,8 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         light_paths,
         gather,
         gather_group,
+        vpl_buffer,
+        vpl_table,
         chunks,
         ism,
         filter,
@@ -421,6 +443,14 @@ impl Technique for Igi {
             direct.render(fc, profiler)?;
         }
         self.light_paths.dispatch(fc, profiler, "vpl generation")?;
+        profiler.pass(fc.ctx, "vpl table", |encoder| {
+            linear_texture::copy_from_buffer(
+                encoder,
+                &self.vpl_buffer,
+                &self.vpl_table,
+                self.vpl_buffer.size(),
+            )
+        })?;
         if let Some(ism) = &mut self.ism {
             ism.render(fc, profiler)?;
         }

@@ -1,6 +1,7 @@
 // Visibility between a VPL and a receiver, for the gather passes: from the VPL's imperfect shadow map
 // when ISM is set and the map covers the VPL, else by a shadow ray through the shared BVH. The
-// including shader binds the filled atlas as `ism_depths: array<f32>` (ISM_SIZE² per VPL).
+// including shader binds the filled atlas as the linear texture `ism_maps: texture_2d<f32>` (ISM_SIZE²
+// texels per VPL, see common/linear_texture.wgsl).
 //
 // The map lookup is a 2×2 percentage-closer filter. Its depth bias grows with the distance and with
 // the slope of the receiver seen from the VPL: one texel spans ism_texel_angle radians, over which a
@@ -9,10 +10,11 @@
 
 #import common/scene.wgsl
 #import common/math.wgsl
+#import common/linear_texture.wgsl
 
 fn ism_depth(k: u32, texel: vec2i) -> f32 {
     let t = vec2u(clamp(texel, vec2i(0), vec2i(i32(ISM_SIZE) - 1)));
-    return ism_depths[k * ISM_SIZE * ISM_SIZE + t.y * ISM_SIZE + t.x];
+    return textureLoad(ism_maps, linear_texel(k * ISM_SIZE * ISM_SIZE + t.y * ISM_SIZE + t.x), 0).r;
 }
 
 fn ism_visibility(k: u32, v: Vpl, x: vec3f, ng: vec3f) -> f32 {

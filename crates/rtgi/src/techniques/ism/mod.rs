@@ -10,7 +10,7 @@
 
 use wgpu::util::DeviceExt;
 
-use crate::gpu::Profiler;
+use crate::gpu::{Profiler, linear_texture};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::scene::Scene;
 use crate::sequences::radical_inverse;
@@ -174,6 +174,9 @@ pub struct ImperfectShadowMaps {
     pull_push: wgpu::ComputePipeline,
     pull_push_group: wgpu::BindGroup,
     atlas: wgpu::Buffer,
+    /// The filled atlas copied into a linear texture, which the gathers read.
+    maps: wgpu::Texture,
+    maps_view: wgpu::TextureView,
     settings: IsmSettings,
     pool: u32,
     vpl_count: u32,
@@ -194,6 +197,8 @@ impl ImperfectShadowMaps {
         let atlas_bytes = u64::from(vpl_count) * u64::from(settings.size * settings.size) * 4;
         ctx.check_storage_size("the imperfect shadow map atlas", atlas_bytes)?;
         let atlas = compute::storage_buffer(ctx, "ism atlas", atlas_bytes);
+        let maps = linear_texture::create(ctx, "ism maps", wgpu::TextureFormat::R32Float, atlas_bytes / 4)?;
+        let maps_view = maps.create_view(&Default::default());
         let areas = triangle_areas(setup.scene);
         let pool_data = point_pool(&areas, pool);
         let pool_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -257,7 +262,7 @@ impl ImperfectShadowMaps {
             "main",
             &layouts(&pull_push_layout),
         )?;
-        let bytes = atlas_bytes + u64::from(pool) * 32;
+        let bytes = atlas_bytes + linear_texture::bytes(&maps) + u64::from(pool) * 32;
         Ok(ImperfectShadowMaps {
             points,
             points_group,
@@ -266,6 +271,8 @@ impl ImperfectShadowMaps {
             pull_push,
             pull_push_group,
             atlas,
+            maps,
+            maps_view,
             settings,
             pool,
             vpl_count,
@@ -274,9 +281,10 @@ impl ImperfectShadowMaps {
         })
     }
 
-    /// The filled maps, `ISM_SIZE²` distances per VPL (FLT_MAX where nothing was seen).
-    pub fn atlas(&self) -> &wgpu::Buffer {
-        &self.atlas
+    /// The filled maps, `ISM_SIZE²` distances per VPL (FLT_MAX where nothing was seen), as the linear
+    /// texture `ism_maps` of `lookup.wgsl`.
+    pub fn maps(&self) -> &wgpu::TextureView {
+        &self.maps_view
     }
 
     /// Meshes moved: the pool is placed again before the next splat.
@@ -319,6 +327,7 @@ impl ImperfectShadowMaps {
                 &groups(fc, &self.pull_push_group),
                 [self.vpl_count, 1, 1],
             );
+            linear_texture::copy_from_buffer(encoder, &self.atlas, &self.maps, self.atlas.size());
         })?;
         Ok(())
     }
