@@ -16,12 +16,12 @@ fn settings(technique: &str, set: &[(&str, &str)], size: u32) -> RendererSetting
 }
 
 /// Two frames of each technique (the second accumulates onto the first) at 64×64 on each built-in scene
-/// with its default parameters: one renderer per scene, switching technique.
-#[test]
-fn every_technique_on_every_builtin_scene_is_finite() {
+/// with its default parameters: one renderer per scene, switching technique. The scenes are split over
+/// two tests, the even and the odd ones of the list, so that the test threads share them.
+fn every_technique_is_finite_on_builtin_scenes(parity: usize) {
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let techniques = rtgi::techniques::registry();
-    for builtin in rtgi::scene::builtin::list() {
+    for builtin in rtgi::scene::builtin::list().iter().skip(parity).step_by(2) {
         let scene = rtgi::scene::builtin::build(builtin.name, &[]).expect("built-in scene");
         let mut renderer =
             Renderer::new(&ctx, scene, &settings(techniques[0].name, &[], 64)).expect("renderer");
@@ -39,6 +39,16 @@ fn every_technique_on_every_builtin_scene_is_finite() {
             );
         }
     }
+}
+
+#[test]
+fn every_technique_on_the_even_builtin_scenes_is_finite() {
+    every_technique_is_finite_on_builtin_scenes(0);
+}
+
+#[test]
+fn every_technique_on_the_odd_builtin_scenes_is_finite() {
+    every_technique_is_finite_on_builtin_scenes(1);
 }
 
 /// The reproduction of issue 10: `igi-sh` with 4096 VPLs (and direct light from VPLs, then its default)
