@@ -447,7 +447,7 @@ mod tests {
             "no storage buffers in vertex shaders (downlevel flag VERTEX_STORAGE)",
             "shader model Sm4 below Sm5",
             "no RENDER_ATTACHMENT on R32Float textures",
-            "max_storage_buffers_per_shader_stage 4 below the scene's 8",
+            "max_storage_buffers_per_shader_stage 4 below the scene's 7",
         ] {
             assert!(reason.contains(part), "'{part}' missing in: {reason}");
         }

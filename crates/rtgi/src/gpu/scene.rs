@@ -10,7 +10,7 @@ use wgpu::util::DeviceExt;
 
 use super::bvh::{Bvh, GpuBvh, InstancedBvh, SceneTriangles, TopLevel};
 use super::resources::buffer_layout_entry;
-use super::{GpuContext, GpuError};
+use super::{GpuContext, GpuError, linear_texture};
 use crate::scene::{AlphaMode, Environment, Light, Scene};
 
 /// 32-byte vertex shared by the raster vertex stage and storage reads (`Vertex` in scene.wgsl).
@@ -259,7 +259,7 @@ pub struct GpuScene {
     pub environment_version: u64,
     info_buffer: wgpu::Buffer,
     environment: wgpu::Texture,
-    environment_cdf: wgpu::Buffer,
+    environment_cdf: wgpu::Texture,
     sky_baker: Option<SkyBaker>,
     bvh: GpuBvh,
     emissive_buffer: wgpu::Buffer,
@@ -417,7 +417,7 @@ fn bvh_texture_layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
 }
 
 /// Storage buffers in bind group 0, visible to every stage: the least any adapter must bind per stage.
-pub const SCENE_STORAGE_BUFFERS: u32 = 8;
+pub const SCENE_STORAGE_BUFFERS: u32 = 7;
 
 /// The entries of bind group 0 (`common/scene.wgsl`).
 fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
@@ -441,7 +441,7 @@ fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
         },
         texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
         storage_layout_entry(12),
-        storage_layout_entry(13),
+        texture_layout_entry(13, wgpu::TextureViewDimension::D2, false),
         storage_layout_entry(14),
     ]
 }
@@ -806,8 +806,17 @@ impl GpuScene {
         let light_buffer = buffer("lights", bytemuck::cast_slice(&lights), storage);
         let emissive_buffer = buffer("emissive triangles", bytemuck::cast_slice(&emissive), storage);
         let emission_pdf_buffer = buffer("emission pdf", bytemuck::cast_slice(&emission_pdf), storage);
-        ctx.check_storage_size("the environment map's sampling table", (env_cdf.len() * 4) as u64)?;
-        let env_cdf_buffer = buffer("environment cdf", bytemuck::cast_slice(&env_cdf), storage);
+        let env_cdf_texture = |cdf: &[f32]| -> Result<wgpu::Texture, GpuError> {
+            let texture = linear_texture::create(
+                ctx,
+                "the environment map's sampling table",
+                wgpu::TextureFormat::R32Float,
+                cdf.len() as u64,
+            )?;
+            linear_texture::write(ctx, &texture, bytemuck::cast_slice(cdf));
+            Ok(texture)
+        };
+        let env_cdf_buffer = env_cdf_texture(&env_cdf)?;
         let info_buffer = buffer(
             "scene info",
             bytemuck::bytes_of(&info),
@@ -888,8 +897,9 @@ impl GpuScene {
                 bytemuck::cast_slice(rgba),
             )
         };
-        let make_bind_group = |env: &wgpu::Texture, env_cdf: &wgpu::Buffer| {
+        let make_bind_group = |env: &wgpu::Texture, env_cdf: &wgpu::Texture| {
             let env_view = env.create_view(&Default::default());
+            let env_cdf_view = env_cdf.create_view(&Default::default());
             let [bvh_nodes, bvh_tris, bvh_instances] = gpu_bvh.bind_entries(5);
             let bvh_instances = wgpu::BindGroupEntry { binding: 14, ..bvh_instances };
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -918,7 +928,10 @@ impl GpuScene {
                         resource: wgpu::BindingResource::TextureView(&env_view),
                     },
                     wgpu::BindGroupEntry { binding: 12, resource: emission_pdf_buffer.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 13, resource: env_cdf.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 13,
+                        resource: wgpu::BindingResource::TextureView(&env_cdf_view),
+                    },
                     bvh_instances,
                 ],
             })
@@ -936,7 +949,7 @@ impl GpuScene {
             let cdf = environment_cdf(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &baked);
             let rgba: Vec<f32> = baked.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
             env = create_env(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &rgba);
-            env_cdf_buffer = buffer("environment cdf", bytemuck::cast_slice(&cdf), storage);
+            env_cdf_buffer = env_cdf_texture(&cdf)?;
             bind_group = make_bind_group(&env, &env_cdf_buffer);
             env_texels = (SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, rgba);
         }
@@ -946,7 +959,7 @@ impl GpuScene {
             + light_buffer.size()
             + emissive_buffer.size()
             + emission_pdf_buffer.size()
-            + env_cdf_buffer.size()
+            + linear_texture::bytes(&env_cdf_buffer)
             + info_buffer.size()
             + gpu_bvh.bytes()
             + textures.bytes
@@ -1145,7 +1158,7 @@ impl GpuScene {
                     },
                     self.environment.size(),
                 );
-                ctx.queue.write_buffer(&self.environment_cdf, 0, bytemuck::cast_slice(&cdf));
+                linear_texture::write(ctx, &self.environment_cdf, bytemuck::cast_slice(&cdf));
                 equirect_integral(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &rgba)
             }
             None => luminance(Vec3::from(info.env_radiance)) * 4.0 * std::f32::consts::PI,

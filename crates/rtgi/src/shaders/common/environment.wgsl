@@ -63,13 +63,18 @@ struct EnvironmentSample {
     radiance: vec3f,
 }
 
-// First index i in [0, count) with env_cdf[start + i] >= u.
+// Entry i of the sampling table, a linear texture (gpu/linear_texture.rs: it is read in loops).
+fn env_cdf_at(i: u32) -> f32 {
+    return textureLoad(env_cdf, linear_texel(i), 0).r;
+}
+
+// First index i in [0, count) with env_cdf_at(start + i) >= u.
 fn env_cdf_search(start: u32, count: u32, u: f32) -> u32 {
     var lo = 0u;
     var hi = count - 1u;
     while lo < hi {
         let mid = (lo + hi) / 2u;
-        if env_cdf[start + mid] < u {
+        if env_cdf_at(start + mid) < u {
             lo = mid + 1u;
         } else {
             hi = mid;
@@ -82,13 +87,13 @@ fn env_cdf_below(start: u32, i: u32) -> f32 {
     if i == 0u {
         return 0.0;
     }
-    return env_cdf[start + i - 1u];
+    return env_cdf_at(start + i - 1u);
 }
 
 // Solid-angle density of texel (x, y) of a w × h map at a point of the texel with the given sin θ.
 fn env_map_texel_pdf(x: u32, y: u32, w: u32, h: u32, sin_theta: f32) -> f32 {
     let row = h + y * w;
-    let p = (env_cdf[y] - env_cdf_below(0u, y)) * (env_cdf[row + x] - env_cdf_below(row, x));
+    let p = (env_cdf_at(y) - env_cdf_below(0u, y)) * (env_cdf_at(row + x) - env_cdf_below(row, x));
     return p * f32(w * h) / (2.0 * PI * PI * max(sin_theta, 1e-6));
 }
 
@@ -101,10 +106,10 @@ fn sample_environment_map(u: vec2f) -> EnvironmentSample {
     let x = env_cdf_search(h + y * w, w, u.x);
     // The position inside the texel reuses what is left of u inside the chosen bucket.
     let y0 = env_cdf_below(0u, y);
-    let fy = saturate((u.y - y0) / max(env_cdf[y] - y0, 1e-12));
+    let fy = saturate((u.y - y0) / max(env_cdf_at(y) - y0, 1e-12));
     let row = h + y * w;
     let x0 = env_cdf_below(row, x);
-    let fx = saturate((u.x - x0) / max(env_cdf[row + x] - x0, 1e-12));
+    let fx = saturate((u.x - x0) / max(env_cdf_at(row + x) - x0, 1e-12));
     let uv = vec2f((f32(x) + fx) / f32(w), (f32(y) + fy) / f32(h));
     s.direction = scene_info.world_from_environment * equirect_direction(uv);
     s.pdf = env_map_texel_pdf(x, y, w, h, sin(uv.y * PI));

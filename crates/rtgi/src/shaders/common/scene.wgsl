@@ -2,6 +2,7 @@
 // and the path tracer. Layouts mirror the `#[repr(C)]` structs in gpu/scene.rs; a unit test checks
 // sizes and offsets with naga reflection.
 
+#import common/linear_texture.wgsl
 #import common/math.wgsl
 #import common/bvh.wgsl
 #import common/brdf.wgsl
@@ -108,7 +109,7 @@ struct SceneInfo {
 @group(0) @binding(12) var<storage, read> emission_pdf: array<f32>;
 // Environment-map sampling table (gpu/scene.rs `environment_cdf`): height marginal CDF values over rows,
 // then width conditional CDF values per row.
-@group(0) @binding(13) var<storage, read> env_cdf: array<f32>;
+@group(0) @binding(13) var env_cdf: texture_2d<f32>;
 // The instances of a two-level BVH (moving rigid meshes; one unused entry for a static scene).
 @group(0) @binding(14) var<storage, read> bvh_instances: array<BvhInstance>;
 
