@@ -9,7 +9,7 @@ use super::interleave::{self, AtlasLayout, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::resources::{self, TextureBuilder};
-use crate::gpu::{GpuContext, Profiler, readback};
+use crate::gpu::{GpuContext, Profiler, linear_texture, readback};
 use crate::shaders::{self, Defines};
 use crate::techniques::RenderError;
 use crate::techniques::compute;
@@ -84,8 +84,11 @@ enum Splatting {
         rects: wgpu::ComputePipeline,
         bins: wgpu::ComputePipeline,
         tiles: wgpu::ComputePipeline,
-        set_up_group: wgpu::BindGroup,
-        per_texel_group: wgpu::BindGroup,
+        /// The tile sets as `splat_bins` writes them, and copied for the per-texel pass.
+        sets: wgpu::Buffer,
+        set_table: wgpu::Texture,
+        /// Group 2 of the rects, sets and per-texel dispatches.
+        groups: [wgpu::BindGroup; 3],
         /// Tiles across and down the atlas, 32-VPL words per tile.
         grid: [u32; 3],
     },
@@ -312,8 +315,9 @@ impl Splat {
                  max_compute_workgroups_per_dimension of {max_groups}"
             )));
         }
-        let rects = compute::storage_buffer(ctx, "splat rects", u64::from(count) * 16);
         let bins = compute::storage_buffer(ctx, "splat tile sets", bin_bytes);
+        let bin_table =
+            linear_texture::create(ctx, "splat tile set table", wgpu::TextureFormat::R32Uint, bin_bytes / 4)?;
         let table_width = count.min(VPL_TABLE_MAX_WIDTH);
         let table = TextureBuilder::d2_array(
             "splat vpl table",
@@ -329,52 +333,73 @@ impl Splat {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        // The set-up passes write the rectangles, sets and VPL table; the per-texel pass reads the sets
-        // and the table (a binding's access must match its layout's).
-        let group = |label: &str, set_up: bool| {
-            let table_entry = if set_up {
-                resources::storage_texture_layout_entry(
-                    4,
-                    wgpu::TextureFormat::Rgba32Float,
-                    wgpu::StorageTextureAccess::WriteOnly,
-                    wgpu::TextureViewDimension::D2Array,
-                )
-            } else {
-                resources::texture_layout_entry(
-                    4,
-                    wgpu::TextureSampleType::Float { filterable: false },
-                    wgpu::TextureViewDimension::D2Array,
-                )
-            };
-            let mut entries = vec![
-                compute::storage_buffer_entry(0, true),
-                compute::storage_buffer_entry(1, !set_up),
-                compute::storage_buffer_entry(2, !set_up),
-                compute::storage_texture_entry(
-                    3,
-                    wgpu::TextureFormat::Rgba32Float,
-                    wgpu::StorageTextureAccess::WriteOnly,
-                ),
-                table_entry,
-            ];
-            entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
-            let layout = compute::layout(ctx, label, &entries);
-            let group = split.bind_group(
-                ctx,
-                label,
-                &layout,
-                &[
-                    vpl_buffer.as_entire_binding(),
-                    rects.as_entire_binding(),
-                    bins.as_entire_binding(),
-                    wgpu::BindingResource::TextureView(atlas_view),
-                    wgpu::BindingResource::TextureView(&table_view),
-                ],
-            );
+        let table_write = resources::storage_texture_layout_entry(
+            2,
+            wgpu::TextureFormat::Rgba32Float,
+            wgpu::StorageTextureAccess::WriteOnly,
+            wgpu::TextureViewDimension::D2Array,
+        );
+        let table_read = |binding| {
+            resources::texture_layout_entry(
+                binding,
+                wgpu::TextureSampleType::Float { filterable: false },
+                wgpu::TextureViewDimension::D2Array,
+            )
+        };
+        // Bindings as `splat_bins.wgsl` and `splat_tiles.wgsl` number them; the table is written by one
+        // dispatch and read by the next ones, so each gets a group of its own.
+        let group = |label: &str, entries: &[(wgpu::BindGroupLayoutEntry, wgpu::BindingResource)]| {
+            let layout_entries: Vec<_> = entries.iter().map(|(e, _)| *e).collect();
+            let layout = compute::layout(ctx, label, &layout_entries);
+            let bind_entries: Vec<_> = entries
+                .iter()
+                .map(|(e, r)| wgpu::BindGroupEntry { binding: e.binding, resource: r.clone() })
+                .collect();
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &layout,
+                entries: &bind_entries,
+            });
             (layout, group)
         };
-        let (set_up_layout, set_up_group) = group("splat tile sets", true);
-        let (per_texel_layout, per_texel_group) = group("splat tiles", false);
+        let table_resource = wgpu::BindingResource::TextureView(&table_view);
+        let (rects_layout, rects_group) = group(
+            "splat rects",
+            &[
+                (compute::storage_buffer_entry(0, true), vpl_buffer.as_entire_binding()),
+                (table_write, table_resource.clone()),
+            ],
+        );
+        let (bins_layout, bins_group) = group(
+            "splat tile sets",
+            &[
+                (compute::storage_buffer_entry(1, false), bins.as_entire_binding()),
+                (table_read(3), table_resource.clone()),
+            ],
+        );
+        let mut tiles_entries = vec![
+            compute::storage_buffer_entry(0, true),
+            compute::texture_entry(1, wgpu::TextureSampleType::Uint),
+            compute::storage_texture_entry(
+                2,
+                wgpu::TextureFormat::Rgba32Float,
+                wgpu::StorageTextureAccess::WriteOnly,
+            ),
+            table_read(3),
+        ];
+        tiles_entries.extend(interleave::surface_entries(wgpu::ShaderStages::COMPUTE));
+        let tiles_layout = compute::layout(ctx, "splat tiles", &tiles_entries);
+        let tiles_group = split.bind_group(
+            ctx,
+            "splat tiles",
+            &tiles_layout,
+            &[
+                vpl_buffer.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&bin_table.create_view(&Default::default())),
+                wgpu::BindingResource::TextureView(atlas_view),
+                table_resource,
+            ],
+        );
         let defines = defines
             .u32("VPL_COUNT", count)
             .u32("BIN_WORDS", words)
@@ -387,11 +412,12 @@ impl Splat {
         };
         let (set_up, per_texel) = (bins_source(), tiles_source());
         Ok(Splatting::Tiles {
-            rects: pipeline(&set_up, "splat_rects", &set_up_layout)?,
-            bins: pipeline(&set_up, "splat_bins", &set_up_layout)?,
-            tiles: pipeline(&per_texel, "splat_tiles", &per_texel_layout)?,
-            set_up_group,
-            per_texel_group,
+            rects: pipeline(&set_up, "splat_rects", &rects_layout)?,
+            bins: pipeline(&set_up, "splat_bins", &bins_layout)?,
+            tiles: pipeline(&per_texel, "splat_tiles", &tiles_layout)?,
+            groups: [rects_group, bins_group, tiles_group],
+            sets: bins,
+            set_table: bin_table,
             grid: [tiles_x, tiles_y, words],
         })
     }
@@ -419,21 +445,33 @@ impl Splat {
                 rects,
                 bins,
                 tiles,
-                set_up_group,
-                per_texel_group,
+                groups: [rects_group, bins_group, tiles_group],
+                sets,
+                set_table,
                 grid: [tiles_x, tiles_y, words],
             } => {
-                let groups = [scene, frame, set_up_group, &self.rsm.bind_group];
-                compute::dispatch(e, "splat rects", rects, &groups, [self.params.count.div_ceil(64), 1, 1]);
-                compute::dispatch(
-                    e,
-                    "splat tile sets",
-                    bins,
-                    &groups,
-                    [words.div_ceil(64), *tiles_x, *tiles_y],
-                );
-                let groups = [scene, frame, per_texel_group, &self.rsm.bind_group];
-                compute::dispatch(e, "splat tiles", tiles, &groups, [*tiles_x, *tiles_y, 1]);
+                let groups = |own| [scene, frame, own, &self.rsm.bind_group];
+                // Without an RSM (no analytic light) no VPL carries light: the sets stay empty as
+                // created (the RSM layers are fixed for the technique's life) and the per-texel pass
+                // only writes zeros.
+                if self.rsm.texels() > 0 {
+                    compute::dispatch(
+                        e,
+                        "splat rects",
+                        rects,
+                        &groups(rects_group),
+                        [self.params.count.div_ceil(64), 1, 1],
+                    );
+                    compute::dispatch(
+                        e,
+                        "splat tile sets",
+                        bins,
+                        &groups(bins_group),
+                        [words.div_ceil(64), *tiles_x, *tiles_y],
+                    );
+                    linear_texture::copy_from_buffer(e, sets, set_table, sets.size());
+                }
+                compute::dispatch(e, "splat tiles", tiles, &groups(tiles_group), [*tiles_x, *tiles_y, 1]);
             }
         }
     }

@@ -2,16 +2,17 @@
 // TILE×TILE tile of the atlas, a bit set of the VPLs whose rectangle meets it (one thread per 32-VPL word:
 // no atomics, so the sets do not depend on thread order); and the VPL table the per-texel pass reads.
 
-@group(2) @binding(1) var<storage, read_write> rects: array<vec4f>;
-@group(2) @binding(2) var<storage, read_write> bins: array<u32>;
-@group(2) @binding(4) var vpl_table_out: texture_storage_2d_array<rgba32float, write>;
+// splat_rects writes the table; splat_bins reads it (two bind groups: a texture is not written and read
+// in one dispatch). Storage buffers are loaded lane by lane inside loops on lavapipe, textures are not.
+@group(2) @binding(1) var<storage, read_write> bins: array<u32>;
+@group(2) @binding(2) var vpl_table_out: texture_storage_2d_array<rgba32float, write>;
+@group(2) @binding(3) var vpl_table: texture_2d_array<f32>;
 
 @compute @workgroup_size(64, 1, 1)
 fn splat_rects(@builtin(global_invocation_id) id: vec3u) {
     if id.x < VPL_COUNT {
         let v = vpls[id.x];
         let rect = splat_atlas_rect(v);
-        rects[id.x] = rect;
         let texel = vpl_table_texel(id.x);
         textureStore(vpl_table_out, texel, VPL_TABLE_POSITION, vec4f(v.position, v.radius));
         textureStore(vpl_table_out, texel, VPL_TABLE_NORMAL, vec4f(v.normal, v.area));
@@ -35,7 +36,7 @@ fn splat_bins(@builtin(global_invocation_id) id: vec3u) {
         if k >= VPL_COUNT {
             break;
         }
-        let r = rects[k];
+        let r = textureLoad(vpl_table, vpl_table_texel(k), VPL_TABLE_RECT, 0);
         if all(r.xy < tile_hi) && all(r.zw > tile_lo) {
             bits |= 1u << b;
         }

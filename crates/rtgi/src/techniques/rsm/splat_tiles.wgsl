@@ -5,12 +5,19 @@
 // each adds where its rectangle covers the texel and its sphere holds the surface — the texels, values
 // and order of the raster splat's additive blending, so the images agree.
 
-@group(2) @binding(2) var<storage, read> bins: array<u32>;
-@group(2) @binding(3) var atlas_out: texture_storage_2d<rgba32float, write>;
+#import common/linear_texture.wgsl
+
+// The tile sets, copied into a linear texture after `splat_bins` (read in loops: see gpu/linear_texture.rs).
+@group(2) @binding(1) var bin_table: texture_2d<u32>;
+
+fn bin_word(i: u32) -> u32 {
+    return textureLoad(bin_table, linear_texel(i), 0).x;
+}
+@group(2) @binding(2) var atlas_out: texture_storage_2d<rgba32float, write>;
 // The VPLs and their rectangles, copied by `splat_rects` (`splat_bins.wgsl`): read inside the VPL loop,
 // where lavapipe loads a storage buffer lane by lane (about 3x the cost of the whole VPL's shading)
 // but fetches a texture for all lanes at once.
-@group(2) @binding(4) var vpl_table: texture_2d_array<f32>;
+@group(2) @binding(3) var vpl_table: texture_2d_array<f32>;
 
 fn table_vpl(k: u32) -> Vpl {
     let texel = vpl_table_texel(k);
@@ -31,7 +38,7 @@ fn splat_tiles(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) 
     // A tile no VPL meets (unlit scenes, outside every splat) reads no G-buffer.
     var any_vpl = 0u;
     for (var word = 0u; word < BIN_WORDS; word++) {
-        any_vpl |= bins[first + word];
+        any_vpl |= bin_word(first + word);
     }
     if any_vpl == 0u {
         textureStore(atlas_out, a, vec4f(0.0));
@@ -42,7 +49,7 @@ fn splat_tiles(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) 
     var sum = vec3f(0.0);
     var count = 0.0;
     for (var word = 0u; word < BIN_WORDS; word++) {
-        var bits = bins[first + word];
+        var bits = bin_word(first + word);
         while bits != 0u {
             let k = word * 32u + firstTrailingBit(bits);
             bits &= bits - 1u;
