@@ -450,27 +450,27 @@ impl Splat {
                 set_table,
                 grid: [tiles_x, tiles_y, words],
             } => {
-                let groups = |own| [scene, frame, own, &self.rsm.bind_group];
-                // Without an RSM (no analytic light) no VPL carries light: the sets stay empty as
-                // created (the RSM layers are fixed for the technique's life) and the per-texel pass
-                // only writes zeros.
-                if self.rsm.texels() > 0 {
-                    compute::dispatch(
-                        e,
-                        "splat rects",
-                        rects,
-                        &groups(rects_group),
-                        [self.params.count.div_ceil(64), 1, 1],
-                    );
-                    compute::dispatch(
-                        e,
-                        "splat tile sets",
-                        bins,
-                        &groups(bins_group),
-                        [words.div_ceil(64), *tiles_x, *tiles_y],
-                    );
-                    linear_texture::copy_from_buffer(e, sets, set_table, sets.size());
+                // Without an RSM (no analytic light) no VPL carries light, and the RSM layers are fixed
+                // for the technique's life: the atlas stays as created, zero, and nothing is dispatched.
+                if self.rsm.texels() == 0 {
+                    return;
                 }
+                let groups = |own| [scene, frame, own, &self.rsm.bind_group];
+                compute::dispatch(
+                    e,
+                    "splat rects",
+                    rects,
+                    &groups(rects_group),
+                    [self.params.count.div_ceil(64), 1, 1],
+                );
+                compute::dispatch(
+                    e,
+                    "splat tile sets",
+                    bins,
+                    &groups(bins_group),
+                    [words.div_ceil(64), *tiles_x, *tiles_y],
+                );
+                linear_texture::copy_from_buffer(e, sets, set_table, sets.size());
                 compute::dispatch(e, "splat tiles", tiles, &groups(tiles_group), [*tiles_x, *tiles_y, 1]);
             }
         }
