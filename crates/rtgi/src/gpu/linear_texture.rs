@@ -8,7 +8,7 @@
 //! (docs/measurements/splat-lavapipe.md, traversal-lavapipe.md). A texture also holds more than a CPU
 //! adapter's 128 MiB storage binding.
 
-use super::{GpuContext, GpuError};
+use super::{GpuContext, GpuError, TextureBuilder};
 
 /// Texels per row (`LINEAR_TEXELS_PER_ROW` in `common/linear_texture.wgsl`): a power of two, so the
 /// shader finds a texel with a mask and a shift, and rows of any 4- to 16-byte format are whole
@@ -43,19 +43,27 @@ pub fn create(
     format: wgpu::TextureFormat,
     texels: u64,
 ) -> Result<wgpu::Texture, GpuError> {
+    builder(ctx, label, format, texels)?.build(ctx)
+}
+
+/// [`create`], also writable by shaders as a storage texture (a table a pass fills for later loops).
+pub fn create_storage(
+    ctx: &GpuContext,
+    label: &str,
+    format: wgpu::TextureFormat,
+    texels: u64,
+) -> Result<wgpu::Texture, GpuError> {
+    builder(ctx, label, format, texels)?.storage().build(ctx)
+}
+
+fn builder<'a>(
+    ctx: &GpuContext,
+    label: &'a str,
+    format: wgpu::TextureFormat,
+    texels: u64,
+) -> Result<TextureBuilder<'a>, GpuError> {
     check(ctx, label, texels, texel_bytes(format))?;
-    Ok(ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: TEXELS_PER_ROW, height: rows(texels) as u32, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC
-            | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    }))
+    Ok(TextureBuilder::d2(label, TEXELS_PER_ROW, rows(texels) as u32, format).sampled().copy())
 }
 
 fn texel_bytes(format: wgpu::TextureFormat) -> u32 {

@@ -816,7 +816,7 @@ impl GpuScene {
             linear_texture::write(ctx, &texture, bytemuck::cast_slice(cdf));
             Ok(texture)
         };
-        let env_cdf_buffer = env_cdf_texture(&env_cdf)?;
+        let env_cdf_table = env_cdf_texture(&env_cdf)?;
         let info_buffer = buffer(
             "scene info",
             bytemuck::bytes_of(&info),
@@ -937,8 +937,8 @@ impl GpuScene {
             })
         };
         let mut env = create_env(env_texels.0, env_texels.1, &env_texels.2);
-        let mut env_cdf_buffer = env_cdf_buffer;
-        let mut bind_group = make_bind_group(&env, &env_cdf_buffer);
+        let mut env_cdf_table = env_cdf_table;
+        let mut bind_group = make_bind_group(&env, &env_cdf_table);
         let mut sky_baker = None;
         if info.env_kind == ENV_SKY {
             // The procedural sky is importance-sampled through a table baked from the shader's own sky
@@ -949,8 +949,8 @@ impl GpuScene {
             let cdf = environment_cdf(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &baked);
             let rgba: Vec<f32> = baked.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 1.0]).collect();
             env = create_env(SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, &rgba);
-            env_cdf_buffer = env_cdf_texture(&cdf)?;
-            bind_group = make_bind_group(&env, &env_cdf_buffer);
+            env_cdf_table = env_cdf_texture(&cdf)?;
+            bind_group = make_bind_group(&env, &env_cdf_table);
             env_texels = (SKY_BAKE_WIDTH, SKY_BAKE_HEIGHT, rgba);
         }
         let memory_bytes = vertex_buffer.size()
@@ -959,7 +959,7 @@ impl GpuScene {
             + light_buffer.size()
             + emissive_buffer.size()
             + emission_pdf_buffer.size()
-            + linear_texture::bytes(&env_cdf_buffer)
+            + linear_texture::bytes(&env_cdf_table)
             + info_buffer.size()
             + gpu_bvh.bytes()
             + textures.bytes
@@ -993,7 +993,7 @@ impl GpuScene {
             environment_version: 0,
             info_buffer,
             environment: env,
-            environment_cdf: env_cdf_buffer,
+            environment_cdf: env_cdf_table,
             sky_baker,
             bvh: gpu_bvh,
             emissive_buffer,

@@ -8,7 +8,6 @@ use super::Resolve;
 use super::interleave::{self, AtlasLayout, SplitGBuffer};
 use super::map::{self, ReflectiveShadowMap};
 use crate::frame::OUTPUT_FORMAT;
-use crate::gpu::resources::{self, TextureBuilder};
 use crate::gpu::{GpuContext, Profiler, linear_texture, readback};
 use crate::shaders::{self, Defines};
 use crate::techniques::RenderError;
@@ -38,10 +37,9 @@ pub struct VplParams {
     pub threshold: f32,
 }
 
-/// The tiled splat's VPL table (`vpl_table.wgsl`): layers per VPL (position, normal, intensity,
-/// atlas rectangle), and VPLs to a row at most.
-const VPL_TABLE_LAYERS: u32 = 4;
-const VPL_TABLE_MAX_WIDTH: u32 = 256;
+/// Texels per VPL of the tiled splat's VPL table (`VPL_TABLE_TEXELS` in `vpl_table.wgsl`): position,
+/// normal, intensity, atlas rectangle.
+pub(super) const VPL_TABLE_TEXELS: u64 = 4;
 
 pub const VPL_STRUCT_WGSL: &str = include_str!("vpl_struct.wgsl");
 
@@ -318,34 +316,20 @@ impl Splat {
         let bins = compute::storage_buffer(ctx, "splat tile sets", bin_bytes);
         let bin_table =
             linear_texture::create(ctx, "splat tile set table", wgpu::TextureFormat::R32Uint, bin_bytes / 4)?;
-        let table_width = count.min(VPL_TABLE_MAX_WIDTH);
-        let table = TextureBuilder::d2_array(
+        let table = linear_texture::create_storage(
+            ctx,
             "splat vpl table",
-            table_width,
-            count.div_ceil(table_width),
-            VPL_TABLE_LAYERS,
             wgpu::TextureFormat::Rgba32Float,
-        )
-        .storage()
-        .sampled()
-        .build(ctx)?;
-        let table_view = table.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let table_write = resources::storage_texture_layout_entry(
+            u64::from(count) * VPL_TABLE_TEXELS,
+        )?;
+        let table_view = table.create_view(&Default::default());
+        let table_write = compute::storage_texture_entry(
             2,
             wgpu::TextureFormat::Rgba32Float,
             wgpu::StorageTextureAccess::WriteOnly,
-            wgpu::TextureViewDimension::D2Array,
         );
-        let table_read = |binding| {
-            resources::texture_layout_entry(
-                binding,
-                wgpu::TextureSampleType::Float { filterable: false },
-                wgpu::TextureViewDimension::D2Array,
-            )
-        };
+        let table_read =
+            |binding| compute::texture_entry(binding, wgpu::TextureSampleType::Float { filterable: false });
         // Bindings as `splat_bins.wgsl` and `splat_tiles.wgsl` number them; the table is written by one
         // dispatch and read by the next ones, so each gets a group of its own.
         let group = |label: &str, entries: &[(wgpu::BindGroupLayoutEntry, wgpu::BindingResource)]| {
@@ -400,11 +384,7 @@ impl Splat {
                 table_resource,
             ],
         );
-        let defines = defines
-            .u32("VPL_COUNT", count)
-            .u32("BIN_WORDS", words)
-            .u32("TILES_X", tiles_x)
-            .u32("VPL_TABLE_WIDTH", table_width);
+        let defines = defines.u32("VPL_COUNT", count).u32("BIN_WORDS", words).u32("TILES_X", tiles_x);
         let pipeline = |source: &str, entry: &str, layout: &wgpu::BindGroupLayout| {
             let layouts =
                 [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, layout, &rsm.layout];

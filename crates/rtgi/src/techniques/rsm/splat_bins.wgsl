@@ -5,19 +5,19 @@
 // splat_rects writes the table; splat_bins reads it (two bind groups: a texture is not written and read
 // in one dispatch). Storage buffers are loaded lane by lane inside loops on lavapipe, textures are not.
 @group(2) @binding(1) var<storage, read_write> bins: array<u32>;
-@group(2) @binding(2) var vpl_table_out: texture_storage_2d_array<rgba32float, write>;
-@group(2) @binding(3) var vpl_table: texture_2d_array<f32>;
+@group(2) @binding(2) var vpl_table_out: texture_storage_2d<rgba32float, write>;
+@group(2) @binding(3) var vpl_table: texture_2d<f32>;
 
 @compute @workgroup_size(64, 1, 1)
 fn splat_rects(@builtin(global_invocation_id) id: vec3u) {
     if id.x < VPL_COUNT {
         let v = vpls[id.x];
         let rect = splat_atlas_rect(v);
-        let texel = vpl_table_texel(id.x);
-        textureStore(vpl_table_out, texel, VPL_TABLE_POSITION, vec4f(v.position, v.radius));
-        textureStore(vpl_table_out, texel, VPL_TABLE_NORMAL, vec4f(v.normal, v.area));
-        textureStore(vpl_table_out, texel, VPL_TABLE_INTENSITY, vec4f(v.intensity, 0.0));
-        textureStore(vpl_table_out, texel, VPL_TABLE_RECT, rect);
+        let k = id.x;
+        textureStore(vpl_table_out, vpl_table_texel(k, VPL_TABLE_POSITION), vec4f(v.position, v.radius));
+        textureStore(vpl_table_out, vpl_table_texel(k, VPL_TABLE_NORMAL), vec4f(v.normal, v.area));
+        textureStore(vpl_table_out, vpl_table_texel(k, VPL_TABLE_INTENSITY), vec4f(v.intensity, 0.0));
+        textureStore(vpl_table_out, vpl_table_texel(k, VPL_TABLE_RECT), rect);
     }
 }
 
@@ -36,7 +36,7 @@ fn splat_bins(@builtin(global_invocation_id) id: vec3u) {
         if k >= VPL_COUNT {
             break;
         }
-        let r = textureLoad(vpl_table, vpl_table_texel(k), VPL_TABLE_RECT, 0);
+        let r = textureLoad(vpl_table, vpl_table_texel(k, VPL_TABLE_RECT), 0);
         if all(r.xy < tile_hi) && all(r.zw > tile_lo) {
             bits |= 1u << b;
         }

@@ -5,8 +5,6 @@
 // each adds where its rectangle covers the texel and its sphere holds the surface — the texels, values
 // and order of the raster splat's additive blending, so the images agree.
 
-#import common/linear_texture.wgsl
-
 // The tile sets, copied into a linear texture after `splat_bins` (read in loops: see gpu/linear_texture.rs).
 @group(2) @binding(1) var bin_table: texture_2d<u32>;
 
@@ -17,13 +15,12 @@ fn bin_word(i: u32) -> u32 {
 // The VPLs and their rectangles, copied by `splat_rects` (`splat_bins.wgsl`): read inside the VPL loop,
 // where lavapipe loads a storage buffer lane by lane (about 3x the cost of the whole VPL's shading)
 // but fetches a texture for all lanes at once.
-@group(2) @binding(3) var vpl_table: texture_2d_array<f32>;
+@group(2) @binding(3) var vpl_table: texture_2d<f32>;
 
 fn table_vpl(k: u32) -> Vpl {
-    let texel = vpl_table_texel(k);
-    let position = textureLoad(vpl_table, texel, VPL_TABLE_POSITION, 0);
-    let normal = textureLoad(vpl_table, texel, VPL_TABLE_NORMAL, 0);
-    let intensity = textureLoad(vpl_table, texel, VPL_TABLE_INTENSITY, 0);
+    let position = textureLoad(vpl_table, vpl_table_texel(k, VPL_TABLE_POSITION), 0);
+    let normal = textureLoad(vpl_table, vpl_table_texel(k, VPL_TABLE_NORMAL), 0);
+    let intensity = textureLoad(vpl_table, vpl_table_texel(k, VPL_TABLE_INTENSITY), 0);
     // The subset is not needed here: the rectangle already lies in the VPL's sub-buffer.
     return Vpl(position.xyz, position.w, normal.xyz, normal.w, intensity.rgb, 0u);
 }
@@ -53,7 +50,7 @@ fn splat_tiles(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) 
         while bits != 0u {
             let k = word * 32u + firstTrailingBit(bits);
             bits &= bits - 1u;
-            let r = textureLoad(vpl_table, vpl_table_texel(k), VPL_TABLE_RECT, 0);
+            let r = textureLoad(vpl_table, vpl_table_texel(k, VPL_TABLE_RECT), 0);
             if all(centre >= r.xy) && all(centre < r.zw) {
                 let v = table_vpl(k);
                 if splat_reaches(s, v) {

@@ -2,7 +2,7 @@
 
 use super::interleave::{self, AtlasLayout};
 use super::*;
-use crate::shaders::{Defines, layout::assert_layout, validate};
+use crate::shaders::{Defines, layout::assert_layout, layout::assert_u32_constants, validate};
 use crate::techniques::fixture::fixture;
 
 fn atlas_defines(l: &AtlasLayout) -> Defines {
@@ -74,7 +74,7 @@ fn shaders_validate() {
         &atlas_defines(&l).bool("SPLIT_GBUFFER", true).f32("SCALE", 8.0),
     );
     for (name, source) in [("splat bins", splat::bins_source()), ("splat tiles", splat::tiles_source())] {
-        validate(
+        let module = validate(
             name,
             &source,
             &atlas_defines(&l)
@@ -82,9 +82,9 @@ fn shaders_validate() {
                 .f32("SCALE", 8.0)
                 .u32("VPL_COUNT", 100)
                 .u32("BIN_WORDS", 4)
-                .u32("TILES_X", 3)
-                .u32("VPL_TABLE_WIDTH", 64),
+                .u32("TILES_X", 3),
         );
+        assert_u32_constants(&module, &[("VPL_TABLE_TEXELS", splat::VPL_TABLE_TEXELS as u32)]);
     }
 }
 
