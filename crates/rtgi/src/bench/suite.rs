@@ -490,6 +490,7 @@ warmup = 5
                 "rsm.toml",
                 "splat.toml",
                 "traversal.toml",
+                "vpl-equal-time-quick.toml",
                 "vpl-equal-time.toml",
                 "vxgi.toml"
             ]
