@@ -7,6 +7,13 @@
 //! 4.1–4.8× faster with its VPLs in a texture, the path tracer 1.4–1.7× with the BVH in two
 //! (docs/measurements/splat-lavapipe.md, traversal-lavapipe.md). A texture also holds more than a CPU
 //! adapter's 128 MiB storage binding.
+//!
+//! The rule is about loops that run many times per invocation, not about every read: the scene's
+//! vertices, triangles and materials, which the path tracer reads once per hit, were tried as linear
+//! textures too (bounce loop and raster vertex pulling alike, images bit-identical) and made the path
+//! tracer's frame 1.39× slower on atrium:detail=5 and 1.24× on atrium at 256² on lavapipe (`rtgi render
+//! --technique path --set spp=1 --frames 4 --stats`, the path pass's mean GPU time, alternating runs of
+//! each build, 2026-11-28). They stay storage buffers.
 
 use super::{GpuContext, GpuError, TextureBuilder};
 
