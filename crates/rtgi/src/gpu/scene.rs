@@ -388,31 +388,11 @@ fn storage_layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
 fn texture_layout_entry(
     binding: u32,
     view_dimension: wgpu::TextureViewDimension,
-    filterable: bool,
+    sample_type: wgpu::TextureSampleType,
 ) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
-        binding,
         visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable },
-            view_dimension,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
-/// The BVH's node and triangle textures (`common/bvh.wgsl`), read with `textureLoad`.
-fn bvh_texture_layout_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Uint,
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
+        ..super::resources::texture_layout_entry(binding, sample_type, view_dimension)
     }
 }
 
@@ -422,26 +402,30 @@ pub const SCENE_STORAGE_BUFFERS: u32 = 7;
 /// The entries of bind group 0 (`common/scene.wgsl`).
 fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
     let all = wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE;
+    const D2: wgpu::TextureViewDimension = wgpu::TextureViewDimension::D2;
+    let filterable = wgpu::TextureSampleType::Float { filterable: true };
+    let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
     [
         buffer_layout_entry(0, all, wgpu::BufferBindingType::Uniform),
         storage_layout_entry(1),
         storage_layout_entry(2),
         storage_layout_entry(3),
         storage_layout_entry(4),
-        bvh_texture_layout_entry(5),
-        bvh_texture_layout_entry(6),
+        // The BVH's nodes and triangles (`common/bvh.wgsl`).
+        texture_layout_entry(5, D2, wgpu::TextureSampleType::Uint),
+        texture_layout_entry(6, D2, wgpu::TextureSampleType::Uint),
         storage_layout_entry(7),
-        texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, true),
-        texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, true),
+        texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, filterable),
+        texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, filterable),
         wgpu::BindGroupLayoutEntry {
             binding: 10,
             visibility: all,
             ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
             count: None,
         },
-        texture_layout_entry(11, wgpu::TextureViewDimension::D2, false),
+        texture_layout_entry(11, D2, unfilterable),
         storage_layout_entry(12),
-        texture_layout_entry(13, wgpu::TextureViewDimension::D2, false),
+        texture_layout_entry(13, D2, unfilterable),
         storage_layout_entry(14),
     ]
 }

@@ -374,14 +374,12 @@ impl GpuBvh {
         let tris: &[u8] = bytemuck::cast_slice(&bvh.triangles);
         let texels = |bytes: &[u8]| (bytes.len() / BVH_TEXEL_BYTES) as u64;
         let format = wgpu::TextureFormat::Rgba32Uint;
-        for (what, bytes) in [("BVH node texture", nodes), ("BVH triangle texture", tris)] {
-            linear_texture::check(ctx, what, texels(bytes), BVH_TEXEL_BYTES as u32)?;
-        }
         // Allocation failures are reported asynchronously by wgpu; the scope turns them into a result.
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let node_texture = linear_texture::create(ctx, "bvh nodes", format, texels(nodes))?;
+        // create checks each against the device's texture limits, naming it.
+        let node_texture = linear_texture::create(ctx, "BVH node texture", format, texels(nodes))?;
         linear_texture::write(ctx, &node_texture, nodes);
-        let tri_texture = linear_texture::create(ctx, "bvh triangles", format, texels(tris))?;
+        let tri_texture = linear_texture::create(ctx, "BVH triangle texture", format, texels(tris))?;
         linear_texture::write(ctx, &tri_texture, tris);
         let placeholder = [BvhInstance::zeroed()];
         let instances = if bvh.instances.is_empty() { &placeholder[..] } else { &bvh.instances[..] };

@@ -97,9 +97,19 @@ fn bvh_node(i: u32) -> BvhNode {
     return BvhNode(bitcast<vec3f>(a.xyz), a.w, children, lo.xyz, lo.w, hi.xyz);
 }
 
-// Texel j (0..3) of triangle i (BVH order), as the floats it holds.
+// Texel j (0..3) of triangle i (BVH order), as the words it holds.
+fn bvh_triangle_words(i: u32, j: u32) -> vec4u {
+    return textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + j), 0);
+}
+
+// Texel j of triangle i as floats (the vertex positions in xyz).
 fn bvh_triangle_texel(i: u32, j: u32) -> vec4f {
-    return bitcast<vec4f>(textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + j), 0));
+    return bitcast<vec4f>(bvh_triangle_words(i, j));
+}
+
+// The original (scene-order) index of triangle i (BVH order).
+fn bvh_original_triangle(i: u32) -> u32 {
+    return bvh_triangle_words(i, 0u).w;
 }
 
 fn hit_found(hit: Hit) -> bool {
@@ -314,11 +324,11 @@ fn bvh_triangle(r: BvhRay, i: u32, tmin: f32, tmax: f32) -> vec4f {
 // Whether a candidate hit on triangle `i` (BVH order) counts, asking the includer for alpha-tested
 // triangles.
 fn bvh_accept(i: u32, u: f32, v: f32) -> bool {
-    let flags = textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + 1u), 0).w;
+    let flags = bvh_triangle_words(i, 1u).w;
     if (flags & BVH_FLAG_ALPHA_TESTED) == 0u {
         return true;
     }
-    return bvh_alpha_test(textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i), 0).w, u, v);
+    return bvh_alpha_test(bvh_original_triangle(i), u, v);
 }
 
 // The traversal stack: deferred children and (closest hit) their entry distances, skipped when a
@@ -384,7 +394,7 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
             let h = bvh_triangle(r, first, tmin, t_best);
             if h.w != 0.0 && bvh_accept(first, h.y, h.z) {
                 t_best = h.x;
-                hit = Hit(h.x, textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * first), 0).w, h.y, h.z);
+                hit = Hit(h.x, bvh_original_triangle(first), h.y, h.z);
             }
             current = bvh_leaf_rest(current);
             have_current = count > 1u;

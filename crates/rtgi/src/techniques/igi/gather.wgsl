@@ -24,19 +24,20 @@
 #import common/sampling.wgsl
 #import common/linear_texture.wgsl
 
-@group(2) @binding(0) var<storage, read> vpls: array<Vpl>;
+// This frame's VPLs, copied into a linear texture (VPL_TABLE_TEXELS texels each) for the loops over
+// them: see gpu/linear_texture.rs.
+@group(2) @binding(0) var vpl_table: texture_2d<u32>;
 @group(2) @binding(1) var<storage, read_write> accum: array<vec2u>;
 // Per pixel: luminance of incident light kept, lost to clamping, and added back by compensation.
 @group(2) @binding(2) var<storage, read_write> clamp_stats: array<vec4f>;
 @group(2) @binding(3) var<uniform> chunk: Chunk;
 // The VPLs' imperfect shadow maps (ism/lookup.wgsl), with visibility=ism; a placeholder otherwise.
 @group(2) @binding(4) var ism_maps: texture_2d<f32>;
-// The VPLs again, copied into a linear texture (5 texels each) for the loops over them: see
-// gpu/linear_texture.rs.
-@group(2) @binding(5) var vpl_table: texture_2d<u32>;
+
+const VPL_TABLE_TEXELS: u32 = 5u;
 
 fn table_vpl(k: u32) -> Vpl {
-    let first = 5u * k;
+    let first = VPL_TABLE_TEXELS * k;
     let a = textureLoad(vpl_table, linear_texel(first), 0);
     let b = textureLoad(vpl_table, linear_texel(first + 1u), 0);
     let c = bitcast<vec4f>(textureLoad(vpl_table, linear_texel(first + 2u), 0));

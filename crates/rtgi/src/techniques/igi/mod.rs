@@ -225,13 +225,11 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
     let vpl_count = u64::from(slots_per_set * sets);
     ctx.check_storage_size("the VPL buffer", vpl_count * size_of::<GpuVpl>() as u64)?;
     let vpl_buffer = compute::storage_buffer(ctx, "vpls", vpl_count * size_of::<GpuVpl>() as u64);
-    // table_vpl in gather.wgsl reads a VPL as five texels.
-    const _: () = assert!(size_of::<GpuVpl>() == 5 * 16);
     let vpl_table = linear_texture::create(
         ctx,
         "igi vpl table",
         wgpu::TextureFormat::Rgba32Uint,
-        vpl_count * (size_of::<GpuVpl>() / 16) as u64,
+        vpl_count * VPL_TABLE_TEXELS,
     )?;
     let vpl_table_view = vpl_table.create_view(&Default::default());
 
@@ -274,12 +272,11 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         ctx,
         "igi gather",
         &[
-            storage_buffer_entry(0, true),
+            compute::texture_entry(0, wgpu::TextureSampleType::Uint),
             storage_buffer_entry(1, false),
             storage_buffer_entry(2, false),
             chunks.entry(3),
             compute::texture_entry(4, wgpu::TextureSampleType::Float { filterable: false }),
-            compute::texture_entry(5, wgpu::TextureSampleType::Uint),
         ],
     );
     let gather_group = compute::bind_group(
@@ -287,12 +284,11 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         "igi gather",
         &gather_layout,
         &[
-            vpl_buffer.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&vpl_table_view),
             accum.as_entire_binding(),
             clamp_stats.as_entire_binding(),
             chunks.resource(),
             wgpu::BindingResource::TextureView(ism_maps),
-            wgpu::BindingResource::TextureView(&vpl_table_view),
         ],
     );
     let gather = compute::pipeline(
@@ -398,6 +394,10 @@ fn create(setup: &TechniqueSetup, variant: Variant) -> Result<Box<dyn Technique>
         height,
     }))
 }
+
+/// Texels per VPL of the gather's VPL table (`VPL_TABLE_TEXELS` in gather.wgsl): a [`GpuVpl`]'s bytes.
+const VPL_TABLE_TEXELS: u64 = (size_of::<GpuVpl>() / 16) as u64;
+const _: () = assert!(size_of::<GpuVpl>().is_multiple_of(16));
 
 fn gather_source() -> String {
     format!("{VPL_WGSL}\n{}\n{}\n{}", ism::PARABOLOID_WGSL, ism::LOOKUP_WGSL, include_str!("gather.wgsl"))

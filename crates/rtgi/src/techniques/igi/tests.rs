@@ -1,11 +1,12 @@
 use super::*;
+use crate::shaders::layout::assert_u32_constants;
 use crate::shaders::validate;
 
 #[test]
 fn shaders_validate() {
     let ism = ism::IsmSettings { size: 32, points_per_vpl: 1024, bias: 0.03 };
     for (variant, ism) in [(Variant::Classic, None), (Variant::Sh, None), (Variant::Classic, Some(&ism))] {
-        validate(
+        let module = validate(
             "igi gather",
             &gather_source(),
             &ism::lookup_defines(
@@ -16,6 +17,7 @@ fn shaders_validate() {
                 ism,
             ),
         );
+        assert_u32_constants(&module, &[("VPL_TABLE_TEXELS", VPL_TABLE_TEXELS as u32)]);
         for raster in [false, true] {
             validate("igi shade", include_str!("shade.wgsl"), &shade_defines(variant, raster).u32("TILE", 8));
         }

@@ -7,15 +7,15 @@
 
 // The tile sets, copied into a linear texture after `splat_bins` (read in loops: see gpu/linear_texture.rs).
 @group(2) @binding(1) var bin_table: texture_2d<u32>;
-
-fn bin_word(i: u32) -> u32 {
-    return textureLoad(bin_table, linear_texel(i), 0).x;
-}
 @group(2) @binding(2) var atlas_out: texture_storage_2d<rgba32float, write>;
 // The VPLs and their rectangles, copied by `splat_rects` (`splat_bins.wgsl`): read inside the VPL loop,
 // where lavapipe loads a storage buffer lane by lane (about 3x the cost of the whole VPL's shading)
 // but fetches a texture for all lanes at once.
 @group(2) @binding(3) var vpl_table: texture_2d<f32>;
+
+fn bin_word(i: u32) -> u32 {
+    return textureLoad(bin_table, linear_texel(i), 0).x;
+}
 
 fn table_vpl(k: u32) -> Vpl {
     let position = textureLoad(vpl_table, vpl_table_texel(k, VPL_TABLE_POSITION), 0);
