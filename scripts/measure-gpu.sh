@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Takes the open issues' GPU figures in one go on a machine with a discrete GPU that receives a copy of this
+# checkout packed by ../shared/tools/gpu-pack.sh (the release binary and the test binaries in .gpu/). Here:
+#     ../shared/tools/gpu-pack.sh && bash scripts/measure-gpu.sh --pack [--no-tests]
+# (--pack strips the binaries, adds traversal's "before" build, target/traversal-base/target/release/rtgi,
+# which `python3 scripts/measure-traversal.py` builds, and compresses them as one solid archive: the device
+# machine takes 64 MiB with the tracked files, of which docs/ alone hold about 45; --no-tests leaves the
+# test binaries out). There, in the copy's root:
+#     bash scripts/measure-gpu.sh STEP...
+# Steps, run in the order given, each under its own time limit (seconds after a colon, e.g. splat:120):
+#     traversal  issue 15.1  scripts/measure-traversal.py --size 1920x1080 --doc traversal-gpu (against .gpu/base/rtgi)
+#     primary    issue 15.2  scripts/measure-primary.py --size 1920x1080 --doc primary-gpu
+#     splat      issue 15.3  scripts/measure-splat.py --size 1920x1080 --doc splat-gpu
+#     vpl        issue 15.4  scripts/measure-vpl-equal-time.py --size 1920x1080 --doc vpl-equal-time-gpu
+#     ddgi       issue 12    scripts/measure-ddgi.py --suite benches/ddgi-gpu.toml --doc ddgi-gpu --no-lag
+#     lpv, vxgi  issue 11    scripts/measure-lpv.py / measure-vxgi.py --size 1920x1080 --doc lpv-gpu / vxgi-gpu
+#     radiance-cache  issue 13  scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu
+#     tests      the whole test suite (.gpu/test.sh)
+# The documents land in docs/measurements/ as on any machine; with $OUT set (the device tool's folder that
+# comes back) they are packed after every step into $OUT/measurements.tgz, with the log in $OUT/log.txt,
+# so a step stopped by its limit still returns what the others printed.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+if [ "${1:-}" = --pack ]; then
+    set -e
+    base=target/traversal-base/target/release/rtgi
+    [ -x "$base" ] || { echo "no $base: run python3 scripts/measure-traversal.py once to build it" >&2; exit 1; }
+    stage=$(mktemp -d); trap 'rm -rf "$stage"' EXIT
+    bins=(target/release/rtgi)
+    [ "${2:-}" = --no-tests ] || bins+=($(cut -f1 .gpu/tests.txt))
+    for b in "${bins[@]}"; do mkdir -p "$stage/$(dirname "$b")"; cp "$b" "$stage/$b"; done
+    mkdir -p "$stage/.gpu/base"; cp "$base" "$stage/.gpu/base/rtgi"
+    strip "$stage/target/release/rtgi" "$stage/.gpu/base/rtgi" $(for b in "${bins[@]:1}"; do echo "$stage/$b"; done)
+    [ "${2:-}" = --no-tests ] && : > .gpu/tests.txt
+    # One solid stream with a dictionary larger than all binaries together: they share most of their code.
+    (cd "$stage" && tar cf - target .gpu) | xz -T1 --lzma2=preset=9e,dict=1536MiB > .gpu/bins.txz
+    echo "repacked .gpu/bins.txz: $(du -h .gpu/bins.txz | cut -f1)"
+    exit 0
+fi
+source .gpu/setup.sh
+export RTGI="$here/target/release/rtgi" RTGI_BASE="$here/.gpu/base/rtgi" RTGI_BASE_COMMIT=2ffd778
+export PYTHONUNBUFFERED=1
+out=${OUT:-$here/.gpu/out}; mkdir -p "$out"
+log="$out/log.txt"
+nvidia-smi -L >> "$log" 2>&1
+
+pack() {
+    (cd docs/measurements && tar czf "$out/measurements.tgz" $(ls -d ./*-gpu.md ./*-gpu-bench 2>/dev/null))
+}
+
+for step in "$@"; do
+    name=${step%%:*}; limit=${step#*:}; [ "$limit" = "$step" ] && limit=600
+    case $name in
+        traversal) cmd=(python3 scripts/measure-traversal.py --size 1920x1080 --doc traversal-gpu --rounds 2) ;;
+        primary) cmd=(python3 scripts/measure-primary.py --size 1920x1080 --doc primary-gpu --rounds 2) ;;
+        splat) cmd=(python3 scripts/measure-splat.py --size 1920x1080 --doc splat-gpu) ;;
+        vpl) cmd=(python3 scripts/measure-vpl-equal-time.py --size 1920x1080 --doc vpl-equal-time-gpu) ;;
+        ddgi) cmd=(python3 scripts/measure-ddgi.py --suite benches/ddgi-gpu.toml --doc ddgi-gpu --no-lag) ;;
+        lpv) cmd=(python3 scripts/measure-lpv.py --size 1920x1080 --doc lpv-gpu) ;;
+        vxgi) cmd=(python3 scripts/measure-vxgi.py --size 1920x1080 --doc vxgi-gpu) ;;
+        radiance-cache) cmd=(python3 scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu) ;;
+        tests) cmd=(env OUT="$out" bash .gpu/test.sh) ;;
+        *) echo "unknown step $name" >> "$log"; continue ;;
+    esac
+    started=$(date +%s)
+    echo "== $name (limit ${limit} s): ${cmd[*]}" >> "$log"
+    timeout "$limit" "${cmd[@]}" >> "$log" 2>&1
+    echo "== $name: exit $? after $(( $(date +%s) - started )) s" >> "$log"
+    pack
+done
+tail -n 40 "$log"
