@@ -18,7 +18,8 @@
 #     tests      the whole test suite (.gpu/test.sh)
 # The documents land in docs/measurements/ as on any machine; with $OUT set (the device tool's folder that
 # comes back) they are packed after every step into $OUT/measurements.tgz, with the log in $OUT/log.txt,
-# so a step stopped by its limit still returns what the others printed.
+# so a step stopped by its limit still returns what the others printed. DEADLINE=S (seconds from the
+# start) shortens every step's limit to what is left of S, and skips the steps it leaves no time for.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 if [ "${1:-}" = --pack ]; then
@@ -48,8 +49,14 @@ pack() {
     (cd docs/measurements && tar czf "$out/measurements.tgz" $(ls -d ./*-gpu.md ./*-gpu-bench 2>/dev/null))
 }
 
+begun=$(date +%s)
 for step in "$@"; do
     name=${step%%:*}; limit=${step#*:}; [ "$limit" = "$step" ] && limit=600
+    if [ -n "${DEADLINE:-}" ]; then
+        left=$(( DEADLINE - ($(date +%s) - begun) ))
+        [ "$left" -lt "$limit" ] && limit=$left
+        [ "$limit" -lt 10 ] && { echo "== $name: skipped, the deadline is near" >> "$log"; continue; }
+    fi
     case $name in
         traversal) cmd=(python3 scripts/measure-traversal.py --size 1920x1080 --doc traversal-gpu --rounds 2) ;;
         primary) cmd=(python3 scripts/measure-primary.py --size 1920x1080 --doc primary-gpu --rounds 2) ;;
@@ -59,13 +66,17 @@ for step in "$@"; do
         lpv) cmd=(python3 scripts/measure-lpv.py --size 1920x1080 --doc lpv-gpu) ;;
         vxgi) cmd=(python3 scripts/measure-vxgi.py --size 1920x1080 --doc vxgi-gpu) ;;
         radiance-cache) cmd=(python3 scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu) ;;
-        tests) cmd=(env OUT="$out" bash .gpu/test.sh) ;;
+        tests) rm -rf .gpu/test-out; cmd=(env OUT="$here/.gpu/test-out" bash .gpu/test.sh) ;;
         *) echo "unknown step $name" >> "$log"; continue ;;
     esac
     started=$(date +%s)
     echo "== $name (limit ${limit} s): ${cmd[*]}" >> "$log"
     timeout "$limit" "${cmd[@]}" >> "$log" 2>&1
     echo "== $name: exit $? after $(( $(date +%s) - started )) s" >> "$log"
+    if [ "$name" = tests ]; then
+        # Logs of a run stopped by its limit are still loose files: one archive and the summary come back.
+        (cd .gpu/test-out && cp summary.txt "$out/" && tar czf "$out/tests.tgz" $(ls test-*.log tests.tgz 2>/dev/null))
+    fi
     pack
 done
 tail -n 40 "$log"
