@@ -35,12 +35,20 @@ if [ "${1:-}" = --pack ]; then
     [ "${2:-}" = --no-tests ] && : > .gpu/tests.txt
     # One solid stream with a dictionary larger than all binaries together: they share most of their code.
     (cd "$stage" && tar cf - target .gpu) | xz -T1 --lzma2=preset=9e,dict=1536MiB > .gpu/bins.txz
+    # The commit the binaries were built from, for the documents (the copy there has no history of its own).
+    git describe --always --dirty --abbrev=12 > .gpu/commit.txt
     echo "repacked .gpu/bins.txz: $(du -h .gpu/bins.txz | cut -f1)"
     exit 0
 fi
 source .gpu/setup.sh
 export RTGI="$here/target/release/rtgi" RTGI_BASE="$here/.gpu/base/rtgi" RTGI_BASE_COMMIT=2ffd778
 export PYTHONUNBUFFERED=1
+# The documents name the packed commit. A .git in the copy is not that commit's (the device machine's copy
+# of the tree may come with the repository as it was earlier), so the scripts must not ask it.
+if [ -s .gpu/commit.txt ]; then
+    export RTGI_COMMIT=$(cat .gpu/commit.txt)
+    [ -d .git ] && mv .git .gpu/copied-git
+fi
 out=${OUT:-$here/.gpu/out}; mkdir -p "$out"
 log="$out/log.txt"
 nvidia-smi -L >> "$log" 2>&1

@@ -80,11 +80,14 @@ fn animation_against_stills(
 #[test]
 fn direct_frames_equal_static_renders_of_the_posed_scene() {
     // One point light through a cube shadow map and no stochastic light: the same pose gives the same
-    // image whichever frame it is (measured: identical).
+    // image whichever frame it is, up to rounding. Measured: identical on lavapipe; on an NVIDIA H200
+    // the moving box (transformed per frame vs posed once) rounds otherwise, largest mean difference
+    // 2.1e-9, FLIP 0 (bounds about 2x). One pixel of another shadow or shade at 32² moves the mean by
+    // ~1e-3 and FLIP by ~5e-4, so these bounds still tell rounding from a wrong pose.
     for (k, (mean_difference, flip)) in
         animation_against_stills("direct", &[], 1, false).into_iter().enumerate()
     {
-        assert!(mean_difference == 0.0 && flip == 0.0, "frame {k}: mean {mean_difference:e}, FLIP {flip}");
+        assert!(mean_difference < 5e-9 && flip < 1e-4, "frame {k}: mean {mean_difference:e}, FLIP {flip}");
     }
 }
 
@@ -385,8 +388,9 @@ fn imperfect_shadow_maps_follow_moved_meshes() {
     let largest = largest_difference(&frame, &expected);
     let relative = (mean(&frame) - mean(&expected)).abs() / mean(&expected);
     eprintln!("igi visibility=ism: largest difference {largest:e}, mean difference {relative:e}");
-    // The bounds of the registry's test above (rounding of points moved with the box, against a
-    // shadow's worth of ~0.1 over many pixels).
-    assert!(largest < 1e-4 && relative < 1e-6, "{largest:e}, {relative:e}");
+    // Rounding of points moved with the box, against a shadow's worth of ~0.1 over many pixels.
+    // Measured: identical on lavapipe; on an NVIDIA H200 largest 1.8e-4, mean 2.6e-6 (a point moved in
+    // place rounds otherwise than the posed one and can land in a neighbouring map texel). Bounds 2x.
+    assert!(largest < 4e-4 && relative < 6e-6, "{largest:e}, {relative:e}");
     assert_eq!((c.scene_uploads, c.technique_builds, c.geometry_updates), (1, 1, 2));
 }

@@ -325,13 +325,16 @@ fn the_ray_cast_gbuffer_matches_the_rasterised_one() {
     // silhouettes), depth 1.6e-4 relative, shading normals 1 − cos 9.8e-3 (bumpy-glossy: its normal map
     // read at the level of a quad's finite differences against the rays' analytic differentials), albedo
     // 0 (untextured base colours), FLIP 0.0082 (bumpy-glossy: its stochastic light samples decorrelate
-    // where the normals differ). Bounds about 2x; albedo's allows for a texture-level difference.
+    // where the normals differ). On an NVIDIA H200: depth 6.6e-4 and normals 2.5e-2 (bumpy-glossy: its
+    // rasteriser's fixed-point vertex snapping and derivative quads), FLIP 0.0108. Bounds about 2x the
+    // larger; albedo's allows for a texture-level difference. A wrong mesh, pose or normal space is off
+    // by whole percents of depth and 1 − cos near 1.
     for name in ["cornell", "bumpy-glossy", "atrium", "spheres-env"] {
         let (other_mesh, depth, normal, albedo, flip) = raster_against_trace(&ctx, name, 64);
         assert!(other_mesh <= 0.002, "{name}: {other_mesh} of the pixels see another mesh");
-        assert!(depth < 3e-4, "{name}: depth differs by {depth:e} (relative)");
-        assert!(normal < 0.02, "{name}: shading normals differ by 1 - cos = {normal:e}");
+        assert!(depth < 1.3e-3, "{name}: depth differs by {depth:e} (relative)");
+        assert!(normal < 0.05, "{name}: shading normals differ by 1 - cos = {normal:e}");
         assert!(albedo < 0.01, "{name}: albedo differs by {albedo}");
-        assert!(flip < 0.015, "{name}: direct light differs by FLIP {flip}");
+        assert!(flip < 0.02, "{name}: direct light differs by FLIP {flip}");
     }
 }
