@@ -329,17 +329,23 @@ impl References<'_> {
     }
 }
 
-/// Measures one cell; errors of the technique on this scene become the cell's `failure`.
-#[allow(clippy::too_many_arguments)]
+/// A compared frame waiting for its figures.
+struct Compared {
+    time: f32,
+    image: HdrImage,
+    reference: HdrImage,
+}
+
+/// Measures one cell on the GPU: its timings and its compared frames, whose figures `finish_cell`
+/// computes. Errors of the technique on this scene become the cell's `failure`.
 fn run_cell(
     ctx: &GpuContext,
     suite: &Suite,
     cell: &CellSpec,
     scene: &Scene,
-    images: Option<&Path>,
     references: &mut References<'_>,
     progress: &mut dyn FnMut(Progress),
-) -> Result<CellResult, RenderError> {
+) -> Result<(CellResult, Vec<Compared>), RenderError> {
     let s = &suite.scenes[cell.scene];
     let start = Instant::now();
     let settings = RendererSettings {
@@ -380,7 +386,7 @@ fn run_cell(
         failure: None,
         image_file: None,
     };
-    let mut measure = || -> Result<(), RenderError> {
+    let mut measure = || -> Result<Vec<Compared>, RenderError> {
         let mut renderer = Renderer::new(ctx, scene.clone(), &settings)?;
         // Measured frame m (1-based) at times[m − 1]; warm-up frames (m = 0) at times[0].
         let time_of = |m: u32| -> f32 {
@@ -422,59 +428,7 @@ fn run_cell(
             metrics::check_finite(&image, &format!("{} on {}", cell.series, s.text)).map_err(metric_error)?;
             let reference =
                 references.get(ctx, suite, cell.scene, scene, t, cell.width, cell.height, progress)?.clone();
-            compared.push((t, image, reference));
-        }
-        // The compared frames' errors, and the first frame's kept image, thumbnail and error map, at
-        // once on the CPU's cores: FLIP takes about a second per 1080p frame on one core, most of a
-        // cell's time on a discrete GPU. Each figure is the same as computed one after the other.
-        let cell_index = cell.index;
-        let (errors, kept) = std::thread::scope(|scope| {
-            let workers: Vec<_> = compared
-                .iter()
-                .enumerate()
-                .map(|(i, (_, image, reference))| {
-                    scope.spawn(move || -> Result<_, RenderError> {
-                        let (map, error) = frame_error(reference, image)?;
-                        let error_map = match i {
-                            0 => Some(png_base64(
-                                &metrics::error_map_rgb8(&map, image.width, image.height),
-                                image.width,
-                                image.height,
-                            )?),
-                            _ => None,
-                        };
-                        Ok((error, error_map))
-                    })
-                })
-                .collect();
-            let keeper = compared.first().map(|(_, image, _)| {
-                scope.spawn(move || -> Result<_, RenderError> {
-                    let file = match images {
-                        Some(dir) => {
-                            let name = format!("cell-{cell_index:04}.exr");
-                            image
-                                .write_exr(dir.join(&name))
-                                .map_err(|e| RenderError::InvalidSettings(e.to_string()))?;
-                            Some(name)
-                        }
-                        None => None,
-                    };
-                    Ok((file, tone_mapped_thumbnail(image)?))
-                })
-            });
-            let errors: Vec<_> = workers.into_iter().map(|w| joined(w.join())).collect();
-            (errors, keeper.map(|k| joined(k.join())))
-        });
-        for ((t, _, _), figures) in compared.iter().zip(errors) {
-            let (error, error_map) = figures?;
-            if error_map.is_some() {
-                result.error_map_png = error_map;
-            }
-            result.frames.push(FrameError { time: *t, error });
-        }
-        if let Some(kept) = kept {
-            (result.image_file, result.thumbnail_png) =
-                kept.map(|(file, thumbnail)| (file, Some(thumbnail)))?;
+            compared.push(Compared { time: t, image, reference });
         }
         let (gpu, wall, passes) = timings(&stats);
         result.gpu_ms = gpu;
@@ -493,10 +447,77 @@ fn run_cell(
         result.gpu_scene_bytes = stats.gpu_scene_bytes;
         result.counters = stats.counters;
         result.warnings = stats.warnings;
+        Ok(compared)
+    };
+    let compared = measure().unwrap_or_else(|e| {
+        result.failure = Some(e.to_string());
+        Vec::new()
+    });
+    result.cell_wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok((result, compared))
+}
+
+/// A cell's figures from its compared frames: FLIP (with its map), relMSE and RMSE per frame, and the
+/// first frame's kept image (in `images`), thumbnail and error map, all at once on the CPU's cores
+/// (FLIP takes about a second per 1080p frame on one core). Each figure is the same as computed one
+/// after the other. A failure here becomes the cell's `failure`.
+fn finish_cell(mut result: CellResult, compared: Vec<Compared>, images: Option<&Path>) -> CellResult {
+    let start = Instant::now();
+    let cell_index = result.index;
+    let (errors, kept) = std::thread::scope(|scope| {
+        let workers: Vec<_> = compared
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                scope.spawn(move || -> Result<_, RenderError> {
+                    let (map, error) = frame_error(&c.reference, &c.image)?;
+                    let error_map = match i {
+                        0 => Some(png_base64(
+                            &metrics::error_map_rgb8(&map, c.image.width, c.image.height),
+                            c.image.width,
+                            c.image.height,
+                        )?),
+                        _ => None,
+                    };
+                    Ok((error, error_map))
+                })
+            })
+            .collect();
+        let keeper = compared.first().map(|c| {
+            scope.spawn(move || -> Result<_, RenderError> {
+                let file = match images {
+                    Some(dir) => {
+                        let name = format!("cell-{cell_index:04}.exr");
+                        c.image
+                            .write_exr(dir.join(&name))
+                            .map_err(|e| RenderError::InvalidSettings(e.to_string()))?;
+                        Some(name)
+                    }
+                    None => None,
+                };
+                Ok((file, tone_mapped_thumbnail(&c.image)?))
+            })
+        });
+        let errors: Vec<_> = workers.into_iter().map(|w| joined(w.join())).collect();
+        (errors, keeper.map(|k| joined(k.join())))
+    });
+    let figures = || -> Result<(), RenderError> {
+        for (c, figures) in compared.iter().zip(errors) {
+            let (error, error_map) = figures?;
+            if error_map.is_some() {
+                result.error_map_png = error_map;
+            }
+            result.frames.push(FrameError { time: c.time, error });
+        }
+        if let Some(kept) = kept {
+            (result.image_file, result.thumbnail_png) =
+                kept.map(|(file, thumbnail)| (file, Some(thumbnail)))?;
+        }
         Ok(())
     };
-    if let Err(e) = measure() {
+    if let Err(e) = figures() {
         result.failure = Some(e.to_string());
+        result.frames.clear();
     }
     let n = result.frames.len() as f64;
     if n > 0.0 {
@@ -507,8 +528,48 @@ fn run_cell(
             rmse: mean(|e| e.rmse),
         });
     }
-    result.cell_wall_ms = start.elapsed().as_secs_f64() * 1e3;
-    Ok(result)
+    result.cell_wall_ms += start.elapsed().as_secs_f64() * 1e3;
+    result
+}
+
+/// Measures `cells` in order; with `overlap` each cell's figures are computed on a thread of their own
+/// while the next cell renders (at most one cell waits for its figures).
+#[allow(clippy::too_many_arguments)]
+fn run_cells(
+    ctx: &GpuContext,
+    suite: &Suite,
+    cells: &[&CellSpec],
+    scenes: &HashMap<usize, Scene>,
+    images: Option<&Path>,
+    references: &mut References<'_>,
+    progress: &mut dyn FnMut(Progress),
+    overlap: bool,
+) -> Result<Vec<CellResult>, RenderError> {
+    let folder = images.map(Path::to_path_buf);
+    let mut results = Vec::new();
+    let mut pending: Option<std::thread::JoinHandle<CellResult>> = None;
+    for (done, cell) in cells.iter().enumerate() {
+        let s = &suite.scenes[cell.scene];
+        progress(Progress::Cell { done, total: cells.len(), cell, scene: &s.text });
+        let (result, compared) = run_cell(ctx, suite, cell, &scenes[&cell.scene], references, progress)?;
+        if let Some(previous) = pending.take() {
+            results.push(joined_cell(previous)?);
+        }
+        if overlap {
+            let folder = folder.clone();
+            pending = Some(std::thread::spawn(move || finish_cell(result, compared, folder.as_deref())));
+        } else {
+            results.push(finish_cell(result, compared, images));
+        }
+    }
+    if let Some(last) = pending {
+        results.push(joined_cell(last)?);
+    }
+    Ok(results)
+}
+
+fn joined_cell(worker: std::thread::JoinHandle<CellResult>) -> Result<CellResult, RenderError> {
+    worker.join().map_err(|_| RenderError::InvalidSettings("a bench worker thread panicked".into()))
 }
 
 /// Runs the cells of `shard` on `ctx`. A cell that fails (the technique cannot run on that scene, a
@@ -522,6 +583,22 @@ pub fn run(
     build: BuildInfo,
     images: Option<&Path>,
     progress: &mut dyn FnMut(Progress),
+) -> Result<BenchResults, RenderError> {
+    // On a discrete GPU a cell's figures are computed on the CPU while the next cell renders (they
+    // took most of a cell's time there); on a CPU adapter the two would share the cores, so one after
+    // the other. The figures are the same either way.
+    let overlap = ctx.adapter.get_info().device_type != wgpu::DeviceType::Cpu;
+    run_shard(ctx, suite, shard, build, images, progress, overlap)
+}
+
+fn run_shard(
+    ctx: &GpuContext,
+    suite: &Suite,
+    shard: Shard,
+    build: BuildInfo,
+    images: Option<&Path>,
+    progress: &mut dyn FnMut(Progress),
+    overlap: bool,
 ) -> Result<BenchResults, RenderError> {
     let cells: Vec<&CellSpec> = suite.cells.iter().filter(|c| shard.contains(c.index)).collect();
     let mut scenes: HashMap<usize, Scene> = HashMap::new();
@@ -543,13 +620,7 @@ pub fn run(
             references.get(ctx, suite, cell.scene, scene, t, cell.width, cell.height, progress)?;
         }
     }
-    let mut results = Vec::new();
-    for (done, cell) in cells.iter().enumerate() {
-        let s = &suite.scenes[cell.scene];
-        progress(Progress::Cell { done, total: cells.len(), cell, scene: &s.text });
-        let scene = &scenes[&cell.scene];
-        results.push(run_cell(ctx, suite, cell, scene, images, &mut references, progress)?);
-    }
+    let results = run_cells(ctx, suite, &cells, &scenes, images, &mut references, progress, overlap)?;
     Ok(BenchResults {
         schema: SCHEMA.into(),
         suite: SuiteInfo {
@@ -615,4 +686,61 @@ pub fn merge(parts: Vec<BenchResults>) -> Result<BenchResults, String> {
 pub fn missing_cells(results: &BenchResults) -> Vec<usize> {
     let have: std::collections::HashSet<usize> = results.cells.iter().map(|c| c.index).collect();
     (0..results.suite.cells).filter(|i| !have.contains(i)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::GpuOptions;
+
+    /// Figures computed while the next cell renders are those computed one after the other: errors per
+    /// frame, thumbnails, error maps and kept images.
+    #[test]
+    fn overlapped_figures_equal_sequential_ones() {
+        let ctx = GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (lavapipe)");
+        let suite = Suite::parse(
+            r#"
+name = "overlap"
+sizes = ["24x16"]
+frames = 2
+error_frames = 2
+[reference]
+spp = 4
+[[scenes]]
+scene = "cornell-spot:animate=spot"
+times = [0.0, 0.5]
+[[techniques]]
+technique = "path"
+sweep = { spp = [1, 2] }
+[[techniques]]
+technique = "direct"
+"#,
+            Path::new("benches/overlap.toml"),
+        )
+        .expect("suite");
+        let run = |overlap: bool| {
+            let dir = tempfile::tempdir().expect("temp dir");
+            let build = BuildInfo { version: "test".into(), commit: "test".into() };
+            let results = run_shard(&ctx, &suite, Shard::ALL, build, Some(dir.path()), &mut |_| {}, overlap)
+                .expect("bench");
+            let images: Vec<Vec<u8>> = results
+                .cells
+                .iter()
+                .map(|c| {
+                    std::fs::read(dir.path().join(c.image_file.as_ref().expect("kept image"))).expect("image")
+                })
+                .collect();
+            (results, images)
+        };
+        let (sequential, sequential_images) = run(false);
+        let (overlapped, overlapped_images) = run(true);
+        assert_eq!(sequential.cells.len(), 3);
+        for (a, b) in sequential.cells.iter().zip(&overlapped.cells) {
+            assert_eq!(a.failure, None);
+            assert_eq!(a.frames.len(), 2);
+            assert_eq!(serde_json::to_string(&a.frames).ok(), serde_json::to_string(&b.frames).ok());
+            assert_eq!((&a.thumbnail_png, &a.error_map_png), (&b.thumbnail_png, &b.error_map_png));
+        }
+        assert_eq!(sequential_images, overlapped_images);
+    }
 }
