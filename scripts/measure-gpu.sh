@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Takes the open issues' GPU figures in one go on a machine with a discrete GPU that receives a copy of this
 # checkout packed by ../shared/tools/gpu-pack.sh (the release binary and the test binaries in .gpu/). Here:
-#     ../shared/tools/gpu-pack.sh && bash scripts/measure-gpu.sh --pack [--no-tests]
+#     ../shared/tools/gpu-pack.sh && bash scripts/measure-gpu.sh --pack [--no-tests] [--no-base]
 # (--pack strips the binaries, adds traversal's "before" build, target/traversal-base/target/release/rtgi,
-# which `python3 scripts/measure-traversal.py` builds, and compresses them as one solid archive: the device
-# machine takes 64 MiB with the tracked files, of which docs/ alone hold about 45; --no-tests leaves the
-# test binaries out). There, in the copy's root:
+# which `python3 scripts/measure-traversal.py` builds, and compresses them as one solid archive of about
+# 17 MiB; --no-tests leaves the test binaries out (about 6 MiB left), --no-base the "before" build. The
+# device machine takes 64 MiB with the tracked files, of which docs/ alone hold about 45: pack the tests
+# and the "before" build for separate calls when both do not fit). There, in the copy's root:
 #     bash scripts/measure-gpu.sh STEP...
 # Steps, run in the order given, each under its own time limit (seconds after a colon, e.g. splat:120):
 #     traversal  issue 15.1  scripts/measure-traversal.py --size 1920x1080 --doc traversal-gpu (against .gpu/base/rtgi)
@@ -13,6 +14,7 @@
 #     splat      issue 15.3  scripts/measure-splat.py --size 1920x1080 --doc splat-gpu
 #     vpl        issue 15.4  scripts/measure-vpl-equal-time.py --size 1920x1080 --doc vpl-equal-time-gpu
 #     ddgi       issue 12    scripts/measure-ddgi.py --suite benches/ddgi-gpu.toml --doc ddgi-gpu --no-lag
+#     ddgi-256   issue 12    scripts/measure-ddgi.py --size 256x256 --doc ddgi-256 (the 128² suite at 256², with the lag runs)
 #     lpv, vxgi  issue 11    scripts/measure-lpv.py / measure-vxgi.py --size 1920x1080 --doc lpv-gpu / vxgi-gpu
 #     radiance-cache  issue 13  scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu
 #     tests      the whole test suite (.gpu/test.sh)
@@ -24,15 +26,28 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 if [ "${1:-}" = --pack ]; then
     set -e
+    tests=yes; with_base=yes
+    for option in "${@:2}"; do
+        case $option in
+            --no-tests) tests=no ;;
+            --no-base) with_base=no ;;
+            *) echo "unknown option $option" >&2; exit 1 ;;
+        esac
+    done
     base=target/traversal-base/target/release/rtgi
-    [ -x "$base" ] || { echo "no $base: run python3 scripts/measure-traversal.py once to build it" >&2; exit 1; }
+    if [ $with_base = yes ] && [ ! -x "$base" ]; then
+        echo "no $base: run python3 scripts/measure-traversal.py once to build it, or pass --no-base" >&2; exit 1
+    fi
     stage=$(mktemp -d); trap 'rm -rf "$stage"' EXIT
+    # gpu-pack's list of test binaries, kept whole for later packs (tests.txt lists what this one holds).
+    [ -s .gpu/tests-all.txt ] || cp .gpu/tests.txt .gpu/tests-all.txt
     bins=(target/release/rtgi)
-    [ "${2:-}" = --no-tests ] || bins+=($(cut -f1 .gpu/tests.txt))
+    [ $tests = yes ] && bins+=($(cut -f1 .gpu/tests-all.txt))
     for b in "${bins[@]}"; do mkdir -p "$stage/$(dirname "$b")"; cp "$b" "$stage/$b"; done
-    mkdir -p "$stage/.gpu/base"; cp "$base" "$stage/.gpu/base/rtgi"
-    strip "$stage/target/release/rtgi" "$stage/.gpu/base/rtgi" $(for b in "${bins[@]:1}"; do echo "$stage/$b"; done)
-    [ "${2:-}" = --no-tests ] && : > .gpu/tests.txt
+    mkdir -p "$stage/.gpu"
+    if [ $with_base = yes ]; then mkdir -p "$stage/.gpu/base"; cp "$base" "$stage/.gpu/base/rtgi"; fi
+    find "$stage" -type f -exec strip {} +
+    if [ $tests = yes ]; then cp .gpu/tests-all.txt .gpu/tests.txt; else : > .gpu/tests.txt; fi
     # One solid stream with a dictionary larger than all binaries together: they share most of their code.
     (cd "$stage" && tar cf - target .gpu) | xz -T1 --lzma2=preset=9e,dict=1536MiB > .gpu/bins.txz
     # The commit the binaries were built from, for the documents (the copy there has no history of its own).
@@ -71,6 +86,7 @@ for step in "$@"; do
         splat) cmd=(python3 scripts/measure-splat.py --size 1920x1080 --doc splat-gpu) ;;
         vpl) cmd=(python3 scripts/measure-vpl-equal-time.py --size 1920x1080 --doc vpl-equal-time-gpu) ;;
         ddgi) cmd=(python3 scripts/measure-ddgi.py --suite benches/ddgi-gpu.toml --doc ddgi-gpu --no-lag) ;;
+        ddgi-256) cmd=(python3 scripts/measure-ddgi.py --size 256x256 --doc ddgi-256) ;;
         lpv) cmd=(python3 scripts/measure-lpv.py --size 1920x1080 --doc lpv-gpu) ;;
         vxgi) cmd=(python3 scripts/measure-vxgi.py --size 1920x1080 --doc vxgi-gpu) ;;
         radiance-cache) cmd=(python3 scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu) ;;
