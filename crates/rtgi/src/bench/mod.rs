@@ -153,7 +153,8 @@ pub struct CellResult {
     pub warmup_passes: Vec<PassResult>,
     /// Renderer creation: scene upload, BVH build, pipelines.
     pub setup_ms: f64,
-    /// The whole cell: setup, frames, read-backs and metrics.
+    /// The whole cell: setup, frames, read-backs and metrics (on a discrete GPU the metrics overlap the
+    /// next cell's rendering, so the cells' wall times add up to more than the run's).
     pub cell_wall_ms: f64,
     /// wgpu's live buffer + texture bytes after the last frame.
     pub gpu_memory_bytes: u64,
