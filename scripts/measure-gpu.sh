@@ -19,7 +19,7 @@
 #     radiance-cache  issue 13  scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu
 #     tests      the whole test suite (.gpu/test.sh)
 # The documents land in docs/measurements/ as on any machine; with $OUT set (the device tool's folder that
-# comes back) they are packed after every step into $OUT/measurements.tgz, with the log in $OUT/log.txt,
+# comes back) those the run wrote are packed after every step into $OUT/measurements.tgz, with the log in $OUT/log.txt,
 # so a step stopped by its limit still returns what the others printed. DEADLINE=S (seconds from the
 # start) shortens every step's limit to what is left of S, and skips the steps it leaves no time for.
 set -uo pipefail
@@ -68,8 +68,13 @@ out=${OUT:-$here/.gpu/out}; mkdir -p "$out"
 log="$out/log.txt"
 nvidia-smi -L >> "$log" 2>&1
 
+# What the steps print: the documents and bench folders written after this marker (ddgi-256 included,
+# whose name has no -gpu; the committed documents the steps do not touch stay behind).
+marker=$(mktemp); touch "$marker"
 pack() {
-    (cd docs/measurements && tar czf "$out/measurements.tgz" $(ls -d ./*-gpu.md ./*-gpu-bench 2>/dev/null))
+    local printed
+    printed=$(cd docs/measurements && find . -mindepth 1 -maxdepth 1 -newer "$marker" | sort)
+    [ -n "$printed" ] && (cd docs/measurements && tar czf "$out/measurements.tgz" $printed)
 }
 
 begun=$(date +%s)
