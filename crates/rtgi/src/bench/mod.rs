@@ -554,7 +554,7 @@ fn run_cells(
         progress(Progress::Cell { done, total: cells.len(), cell, scene: &s.text });
         let (result, compared) = run_cell(ctx, suite, cell, &scenes[&cell.scene], references, progress)?;
         if let Some(previous) = pending.take() {
-            results.push(joined_cell(previous)?);
+            results.push(joined(previous.join().map(Ok))?);
         }
         if overlap {
             let folder = folder.clone();
@@ -564,13 +564,9 @@ fn run_cells(
         }
     }
     if let Some(last) = pending {
-        results.push(joined_cell(last)?);
+        results.push(joined(last.join().map(Ok))?);
     }
     Ok(results)
-}
-
-fn joined_cell(worker: std::thread::JoinHandle<CellResult>) -> Result<CellResult, RenderError> {
-    worker.join().map_err(|_| RenderError::InvalidSettings("a bench worker thread panicked".into()))
 }
 
 /// Runs the cells of `shard` on `ctx`. A cell that fails (the technique cannot run on that scene, a
