@@ -97,9 +97,12 @@ def main():
         "included, so the ratio understates the traversal's own gain. Before: binary SAH tree, 32-byte "
         "nodes, two boxes per visit. After: the same SAH tree collapsed into 4-wide nodes with "
         "byte-quantised child boxes (64 bytes, four boxes per visit, children visited nearest first), "
-        "nodes and triangles read from textures rather than storage buffers, and so is the environment's "
-        "sampling table (lavapipe loads storage buffers inside loops lane by lane: gpu/linear_texture.rs); "
-        "the rest of the shading is unchanged.",
+        "nodes and triangles read from read-only storage textures rather than storage buffers, and the "
+        "environment's sampling table from a texture (lavapipe loads storage buffers inside loops lane by "
+        "lane, and calls a generic texel-fetch function for a sampled texture: gpu/linear_texture.rs); "
+        "the alpha test compiled out for scenes without alpha-tested triangles (`BVH_ALPHA_TESTS`: "
+        "lavapipe runs a branch's body with every lane masked off rather than skip it, so every "
+        "triangle test paid for it); the rest of the shading is unchanged.",
         "",
         "| scene | rays / sample | before M rays/s | after M rays/s | after / before | before ms / frame "
         "| after ms / frame | GPU scene MiB before | after |",

@@ -396,6 +396,19 @@ fn texture_layout_entry(
     }
 }
 
+/// A linear texture of `format` bound as a read-only storage texture, visible to every stage.
+fn read_only_table_layout_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        ..super::resources::storage_texture_layout_entry(
+            binding,
+            format,
+            wgpu::StorageTextureAccess::ReadOnly,
+            wgpu::TextureViewDimension::D2,
+        )
+    }
+}
+
 /// Storage buffers in bind group 0, visible to every stage: the least any adapter must bind per stage.
 pub const SCENE_STORAGE_BUFFERS: u32 = 7;
 
@@ -411,9 +424,10 @@ fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
         storage_layout_entry(2),
         storage_layout_entry(3),
         storage_layout_entry(4),
-        // The BVH's nodes and triangles (`common/bvh.wgsl`).
-        texture_layout_entry(5, D2, wgpu::TextureSampleType::Uint),
-        texture_layout_entry(6, D2, wgpu::TextureSampleType::Uint),
+        // The BVH's nodes and triangles (`common/bvh.wgsl`), read-only storage textures
+        // (gpu/linear_texture.rs says why).
+        read_only_table_layout_entry(5, wgpu::TextureFormat::Rgba32Uint),
+        read_only_table_layout_entry(6, wgpu::TextureFormat::Rgba32Uint),
         storage_layout_entry(7),
         texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, filterable),
         texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, filterable),
@@ -1020,10 +1034,10 @@ impl GpuScene {
             .collect()
     }
 
-    /// `defines` plus the BVH variant this scene needs (`BVH_INSTANCES`, see `common/bvh.wgsl`): every
-    /// pipeline that traces rays is built with them.
+    /// `defines` plus the BVH variant this scene needs (`BVH_INSTANCES` and `BVH_ALPHA_TESTS`, see
+    /// `common/bvh.wgsl`): every pipeline that traces rays is built with them.
     pub fn bvh_defines(&self, defines: crate::shaders::Defines) -> crate::shaders::Defines {
-        defines.bool("BVH_INSTANCES", self.has_instances())
+        defines.bool("BVH_INSTANCES", self.has_instances()).bool("BVH_ALPHA_TESTS", self.bvh.alpha_tested)
     }
 
     /// Moves meshes in place: `scene` is the uploaded scene posed anew, in which the meshes `moved`

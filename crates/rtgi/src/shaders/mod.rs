@@ -134,9 +134,9 @@ fn append_resolved(
 }
 
 /// Resolves the imports of `source` (named `shader` in errors) and prepends `defines`. A shader that
-/// includes `common/bvh.wgsl` without defining `BVH_INSTANCES` gets the traversal that handles
-/// instances (correct for every scene; `GpuScene::bvh_defines` selects the faster single-level one
-/// where a scene has no instances).
+/// includes `common/bvh.wgsl` without defining `BVH_INSTANCES` or `BVH_ALPHA_TESTS` gets the
+/// traversal that handles instances and alpha tests (correct for every scene; `GpuScene::bvh_defines`
+/// selects the faster one without them where a scene has none).
 pub fn compose(shader: &str, source: &str, defines: &Defines) -> Result<String, ShaderError> {
     let mut out = String::new();
     for line in &defines.lines {
@@ -145,8 +145,12 @@ pub fn compose(shader: &str, source: &str, defines: &Defines) -> Result<String, 
     }
     let mut seen = HashSet::new();
     append_resolved(shader, source, &mut seen, &mut Vec::new(), &mut out)?;
-    if seen.contains("common/bvh.wgsl") && !defines.has("BVH_INSTANCES") {
-        out.insert_str(0, "const BVH_INSTANCES: bool = true;\n");
+    if seen.contains("common/bvh.wgsl") {
+        for name in ["BVH_INSTANCES", "BVH_ALPHA_TESTS"] {
+            if !defines.has(name) {
+                out.insert_str(0, &format!("const {name}: bool = true;\n"));
+            }
+        }
     }
     Ok(out)
 }

@@ -37,8 +37,8 @@ struct TestResult {
     _pad2: u32,
 }
 
-@group(0) @binding(0) var bvh_nodes: texture_2d<u32>;
-@group(0) @binding(1) var bvh_tris: texture_2d<u32>;
+@group(0) @binding(0) var bvh_nodes: texture_storage_2d<rgba32uint, read>;
+@group(0) @binding(1) var bvh_tris: texture_storage_2d<rgba32uint, read>;
 @group(0) @binding(2) var<storage, read> bvh_instances: array<BvhInstance>;
 @group(0) @binding(3) var<storage, read> rays: array<TestRay>;
 @group(0) @binding(4) var<storage, read_write> results: array<TestResult>;
@@ -118,8 +118,12 @@ impl Harness {
     }
 
     fn with_source(ctx: &GpuContext, bvh: &Bvh, mode: u32, source: &str) -> Result<Harness, GpuError> {
-        // The traversal a scene with this BVH gets: single-level unless it has instances.
-        let defines = Defines::new().u32("MODE", mode).bool("BVH_INSTANCES", !bvh.instances.is_empty());
+        // The traversal a scene with this BVH gets: single-level unless it has instances, without the
+        // alpha test unless a triangle is alpha-tested.
+        let defines = Defines::new()
+            .u32("MODE", mode)
+            .bool("BVH_INSTANCES", !bvh.instances.is_empty())
+            .bool("BVH_ALPHA_TESTS", bvh.has_alpha_tested());
         let module = shaders::create_module(ctx, "bvh harness", source, &defines)
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -421,8 +425,8 @@ const ARITHMETIC_KERNEL: &str = r#"
 #import common/bvh.wgsl
 
 // bvh.wgsl's contract; unused here.
-@group(1) @binding(0) var bvh_nodes: texture_2d<u32>;
-@group(1) @binding(1) var bvh_tris: texture_2d<u32>;
+@group(1) @binding(0) var bvh_nodes: texture_storage_2d<rgba32uint, read>;
+@group(1) @binding(1) var bvh_tris: texture_storage_2d<rgba32uint, read>;
 @group(1) @binding(2) var<storage, read> bvh_instances: array<BvhInstance>;
 fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool {
     return true;
@@ -544,19 +548,24 @@ fn bvh_harness_shader_validates() {
         let module = shaders::validate("bvh harness", HARNESS, &Defines::new().u32("MODE", mode));
         assert!(module.global_variables.iter().any(|(_, g)| g.name.as_deref() == Some("bvh_nodes")));
         for instances in [false, true] {
-            shaders::validate(
-                "bvh harness",
-                HARNESS,
-                &Defines::new().u32("MODE", mode).bool("BVH_INSTANCES", instances),
-            );
+            for alpha_tests in [false, true] {
+                let defines = Defines::new()
+                    .u32("MODE", mode)
+                    .bool("BVH_INSTANCES", instances)
+                    .bool("BVH_ALPHA_TESTS", alpha_tests);
+                shaders::validate("bvh harness", HARNESS, &defines);
+            }
         }
     }
-    // Without a definition the traversal handles instances (correct for every scene), defined once.
+    // Without a definition the traversal handles instances and alpha tests (correct for every scene),
+    // each defined once.
     let composed = shaders::compose("bvh harness", HARNESS, &Defines::new()).expect("compose");
-    assert_eq!(composed.matches("const BVH_INSTANCES: bool = true;").count(), 1);
-    let composed = shaders::compose("bvh harness", HARNESS, &Defines::new().bool("BVH_INSTANCES", false))
-        .expect("compose");
-    assert_eq!(composed.matches("const BVH_INSTANCES").count(), 1);
+    for name in ["BVH_INSTANCES", "BVH_ALPHA_TESTS"] {
+        assert_eq!(composed.matches(&format!("const {name}: bool = true;")).count(), 1, "{name}");
+        let defines = Defines::new().bool(name, false);
+        let composed = shaders::compose("bvh harness", HARNESS, &defines).expect("compose");
+        assert_eq!(composed.matches(&format!("const {name}")).count(), 1, "{name}");
+    }
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //!   references and GPU results take every hit-or-miss decision alike, bit for bit on a GPU with a
 //!   fused `fma` (hit distances may differ by the GPU's division error); [`intersect_brute_force`]
 //!   checks both.
-//! - [`GpuBvh`]: the two storage buffers `bvh.wgsl` reads (`bvh_nodes`, `bvh_tris`).
+//! - [`GpuBvh`]: the two linear textures `bvh.wgsl` reads (`bvh_nodes`, `bvh_tris`).
 //!
 //! GPU layout (all `#[repr(C)]`, matching WGSL's storage layout):
 //! - [`BvhNode`], 64 bytes: a node of the 4-wide BVH (see [`wide`] for how the binary SAH tree is
@@ -292,6 +292,11 @@ impl Bvh {
         Self::build(&tris.triangles, Some(&tris.alpha_tested))
     }
 
+    /// Whether any triangle is alpha-tested.
+    pub fn has_alpha_tested(&self) -> bool {
+        self.triangles.iter().any(BvhTriangle::is_alpha_tested)
+    }
+
     /// Number of real triangles (an empty BVH holds one degenerate placeholder that never hits).
     pub fn triangle_count(&self) -> usize {
         if self.triangles.len() == 1 && self.triangles[0] == build::EMPTY_TRIANGLE {
@@ -354,7 +359,8 @@ pub const BVH_NODE_TEXELS: usize = size_of::<BvhNode>() / BVH_TEXEL_BYTES;
 pub const BVH_TRIANGLE_TEXELS: usize = size_of::<BvhTriangle>() / BVH_TEXEL_BYTES;
 
 /// The BVH on the GPU, as `bvh.wgsl` expects it: `bvh_nodes` and `bvh_tris` as linear textures of
-/// 16-byte texels (the arrays' bytes in order, see [`linear_texture`], which says why textures),
+/// 16-byte texels (the arrays' bytes in order) bound as read-only storage textures (see
+/// [`linear_texture`], which says why),
 /// `bvh_instances` as a storage buffer.
 pub struct GpuBvh {
     pub nodes: wgpu::Texture,
@@ -365,6 +371,9 @@ pub struct GpuBvh {
     pub instances: wgpu::Buffer,
     pub node_count: u32,
     pub triangle_count: u32,
+    /// Whether any triangle is alpha-tested: without one, shaders compile the traversal without the
+    /// alpha test (`BVH_ALPHA_TESTS`, see `common/bvh.wgsl`).
+    pub alpha_tested: bool,
 }
 
 impl GpuBvh {
@@ -377,9 +386,9 @@ impl GpuBvh {
         // Allocation failures are reported asynchronously by wgpu; the scope turns them into a result.
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         // create checks each against the device's texture limits, naming it.
-        let node_texture = linear_texture::create(ctx, "BVH node texture", format, texels(nodes))?;
+        let node_texture = linear_texture::create_storage(ctx, "BVH node texture", format, texels(nodes))?;
         linear_texture::write(ctx, &node_texture, nodes);
-        let tri_texture = linear_texture::create(ctx, "BVH triangle texture", format, texels(tris))?;
+        let tri_texture = linear_texture::create_storage(ctx, "BVH triangle texture", format, texels(tris))?;
         linear_texture::write(ctx, &tri_texture, tris);
         let placeholder = [BvhInstance::zeroed()];
         let instances = if bvh.instances.is_empty() { &placeholder[..] } else { &bvh.instances[..] };
@@ -399,6 +408,7 @@ impl GpuBvh {
             instances: instance_buffer,
             node_count: bvh.nodes.len() as u32,
             triangle_count: bvh.triangles.len() as u32,
+            alpha_tested: bvh.has_alpha_tested(),
         })
     }
 

@@ -5,15 +5,15 @@
 // CONTRACT WITH THE INCLUDING SHADER. This module declares no bindings (each technique picks its own
 // group and binding numbers); the includer must declare, with exactly these names:
 //
-//   @group(G) @binding(B)     var bvh_nodes: texture_2d<u32>;                          // GpuBvh::nodes
-//   @group(G) @binding(B + 1) var bvh_tris: texture_2d<u32>;                           // GpuBvh::triangles
+//   @group(G) @binding(B)     var bvh_nodes: texture_storage_2d<rgba32uint, read>;   // GpuBvh::nodes
+//   @group(G) @binding(B + 1) var bvh_tris: texture_storage_2d<rgba32uint, read>;    // GpuBvh::triangles
 //   @group(G) @binding(C)     var<storage, read> bvh_instances: array<BvhInstance>;  // GpuBvh::instances
 //   fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool
 //
 // Nodes and triangles are linear textures of 16-byte texels (common/linear_texture.wgsl): 4 per node (the BvhNode struct's bytes), 3 per triangle: v0.xyz +
 // original triangle index (u32 bits), v1.xyz + flags (u32 bits, bit 0 = alpha-tested), v2.xyz +
-// padding. Textures rather than storage buffers because the traversal loads inside its loop
-// (gpu/linear_texture.rs says why that matters). bvh_alpha_test is called only for hits on
+// padding. Read-only storage textures rather than storage buffers or sampled textures because the
+// traversal loads inside its loop (gpu/linear_texture.rs says why that matters). bvh_alpha_test is called only for hits on
 // triangles flagged alpha-tested, with the original (global) triangle index and the barycentrics of
 // v1 and v2; it returns true for an opaque hit. Shaders without alpha-masked materials can simply
 // `return true;`.
@@ -27,7 +27,12 @@
 // BVH_INSTANCES (a bool the includer may define; shaders::compose defines it true otherwise): false
 // compiles the single-level traversal alone, for scenes without instances (GpuScene::bvh_defines).
 // The instance branches cost a quarter of the closest-hit throughput on lavapipe even when no lane
-// takes them.
+// takes them. BVH_ALPHA_TESTS likewise (defined true unless the includer says otherwise): false
+// compiles the traversal without the alpha test, for scenes without alpha-tested triangles. Lavapipe
+// runs the body of a branch on per-lane values with every lane masked off rather than skip it, so
+// the whole alpha test (vertex and material loads, a texture sample) ran for every triangle tested
+// although atrium has no alpha-tested triangle: without it the path tracer's frame takes 0.62x the
+// time on atrium:detail=5 at 256² (best of 4 alternating runs, 583 against 935 ms).
 //
 // Queries: hits are accepted for tmin < t < tmax, t in units of ray.dir (which need not be
 // normalised). A miss is `hit.triangle == BVH_NO_HIT`, with hit.t = FLT_MAX.
@@ -40,6 +45,9 @@
 const BVH_STACK_SIZE: u32 = 64u;
 const BVH_NO_HIT: u32 = 0xffffffffu;
 const BVH_FLAG_ALPHA_TESTED: u32 = 1u;
+// bvh_triangle's w for a candidate hit on an opaque and an alpha-tested triangle (0: no hit).
+const BVH_HIT_OPAQUE: f32 = 1.0;
+const BVH_HIT_ALPHA_TESTED: f32 = 2.0;
 const BVH_INSTANCE_LEAF: u32 = 7u;
 const BVH_EMPTY_CHILD: u32 = 0xffffffffu;
 const BVH_NODE_TEXELS: u32 = 4u;
@@ -90,16 +98,16 @@ struct BvhInstance {
 
 fn bvh_node(i: u32) -> BvhNode {
     let first = BVH_NODE_TEXELS * i;
-    let a = textureLoad(bvh_nodes, linear_texel(first), 0);
-    let children = textureLoad(bvh_nodes, linear_texel(first + 1u), 0);
-    let lo = textureLoad(bvh_nodes, linear_texel(first + 2u), 0);
-    let hi = textureLoad(bvh_nodes, linear_texel(first + 3u), 0);
+    let a = textureLoad(bvh_nodes, linear_texel(first));
+    let children = textureLoad(bvh_nodes, linear_texel(first + 1u));
+    let lo = textureLoad(bvh_nodes, linear_texel(first + 2u));
+    let hi = textureLoad(bvh_nodes, linear_texel(first + 3u));
     return BvhNode(bitcast<vec3f>(a.xyz), a.w, children, lo.xyz, lo.w, hi.xyz);
 }
 
 // Texel j (0..3) of triangle i (BVH order), as the words it holds.
 fn bvh_triangle_words(i: u32, j: u32) -> vec4u {
-    return textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + j), 0);
+    return textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + j));
 }
 
 // Texel j of triangle i as floats (the vertex positions in xyz).
@@ -295,14 +303,16 @@ fn bvh_sort_children(entry: vec4f, children: vec4u) -> BvhChildren {
     return BvhChildren(t, c);
 }
 
-// Watertight ray–triangle test of triangle `i` (BVH order): vec4f(t, u, v, 1) for tmin < t < tmax,
-// else w = 0 (a flag rather than a sentinel t, since tmax may be FLT_MAX or even +inf). An edge
+// Watertight ray–triangle test of triangle `i` (BVH order): vec4f(t, u, v, w) for tmin < t < tmax,
+// w = BVH_HIT_OPAQUE or BVH_HIT_ALPHA_TESTED (the triangle's flag, so that bvh_accept needs no second
+// load), else w = 0 (a flag rather than a sentinel t, since tmax may be FLT_MAX or even +inf). An edge
 // function of exactly 0 counts as inside for both triangles sharing the edge (the paper's
 // double-precision fallback does not exist in WGSL): no gaps, at worst a double hit.
 fn bvh_triangle(r: BvhRay, i: u32, tmin: f32, tmax: f32) -> vec4f {
     let miss = vec4f(0.0);
+    let v1 = bvh_triangle_words(i, 1u);
     let a = bvh_project(bvh_triangle_texel(i, 0u).xyz, r);
-    let b = bvh_project(bvh_triangle_texel(i, 1u).xyz, r);
+    let b = bvh_project(bitcast<vec3f>(v1.xyz), r);
     let c = bvh_project(bvh_triangle_texel(i, 2u).xyz, r);
     // Lanes: edges b → c, c → a, a → b, i.e. the weights of a, b, c (the paper's U, V, W).
     let e = bvh_edges(vec3f(b.x, c.x, a.x), vec3f(b.y, c.y, a.y), vec3f(c.x, a.x, b.x), vec3f(c.y, a.y, b.y));
@@ -318,17 +328,17 @@ fn bvh_triangle(r: BvhRay, i: u32, tmin: f32, tmax: f32) -> vec4f {
     if !(t > tmin && t < tmax) {
         return miss;
     }
-    return vec4f(t, e.y / det, e.z / det, 1.0);
+    let alpha_tested = (v1.w & BVH_FLAG_ALPHA_TESTED) != 0u;
+    return vec4f(t, e.y / det, e.z / det, select(BVH_HIT_OPAQUE, BVH_HIT_ALPHA_TESTED, alpha_tested));
 }
 
-// Whether a candidate hit on triangle `i` (BVH order) counts, asking the includer for alpha-tested
-// triangles.
-fn bvh_accept(i: u32, u: f32, v: f32) -> bool {
-    let flags = bvh_triangle_words(i, 1u).w;
-    if (flags & BVH_FLAG_ALPHA_TESTED) == 0u {
+// Whether candidate hit `h` (bvh_triangle's, w != 0) on triangle `i` (BVH order) counts, asking the
+// includer for alpha-tested triangles.
+fn bvh_accept(i: u32, h: vec4f) -> bool {
+    if !BVH_ALPHA_TESTS || h.w != BVH_HIT_ALPHA_TESTED {
         return true;
     }
-    return bvh_alpha_test(bvh_original_triangle(i), u, v);
+    return bvh_alpha_test(bvh_original_triangle(i), h.y, h.z);
 }
 
 // The traversal stack: deferred children and (closest hit) their entry distances, skipped when a
@@ -392,9 +402,10 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
         // closest-hit rays/s of random rays on lavapipe). The order of tests is the leaf's.
         if count > 0u {
             let h = bvh_triangle(r, first, tmin, t_best);
-            if h.w != 0.0 && bvh_accept(first, h.y, h.z) {
+            if h.w != 0.0 && bvh_accept(first, h) {
                 t_best = h.x;
-                hit = Hit(h.x, bvh_original_triangle(first), h.y, h.z);
+                // The BVH-order index until the end: one lookup of the original per query.
+                hit = Hit(h.x, first, h.y, h.z);
             }
             current = bvh_leaf_rest(current);
             have_current = count > 1u;
@@ -420,6 +431,9 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
         }
         current = s.refs.x;
         have_current = s.t.x < FLT_MAX;
+    }
+    if hit_found(hit) {
+        hit.triangle = bvh_original_triangle(hit.triangle);
     }
     return hit;
 }
@@ -465,7 +479,7 @@ fn trace_any_from(ray: Ray, start_ray: BvhRay, start: u32, tmin: f32, tmax: f32)
         }
         if count > 0u {
             let h = bvh_triangle(r, first, tmin, tmax);
-            if h.w != 0.0 && bvh_accept(first, h.y, h.z) {
+            if h.w != 0.0 && bvh_accept(first, h) {
                 return true;
             }
             current = bvh_leaf_rest(current);
