@@ -1307,6 +1307,36 @@ mod tests {
         assert_eq!(storage as u32, SCENE_STORAGE_BUFFERS);
     }
 
+    /// Pipelines that trace get the traversal the scene needs: the instance branches only with moving
+    /// meshes, the alpha test only with alpha-tested triangles (lavapipe runs either at full cost even
+    /// where no lane takes it: `common/bvh.wgsl`).
+    #[test]
+    fn the_traversal_variant_follows_the_scene() {
+        let ctx = GpuContext::new(&crate::gpu::GpuOptions::default()).expect("a GPU adapter");
+        let defines = |gpu: &GpuScene| {
+            let text = crate::shaders::compose("t", "", &gpu.bvh_defines(Defines::new())).expect("compose");
+            (
+                text.contains("const BVH_INSTANCES: bool = true;"),
+                text.contains("const BVH_ALPHA_TESTS: bool = true;"),
+            )
+        };
+        let mut scene = crate::scene::builtin::build("cornell", &[]).expect("scene");
+        assert_eq!(defines(&GpuScene::new(&ctx, &scene).expect("upload")), (false, false));
+        let mut moving = vec![false; scene.meshes.len()];
+        moving[0] = true;
+        assert_eq!(
+            defines(&GpuScene::with_moving_meshes(&ctx, &scene, &moving).expect("upload")),
+            (true, false)
+        );
+        let masked = scene.meshes[0].material as usize;
+        scene.materials[masked].alpha_mode = crate::scene::AlphaMode::Mask { cutoff: 0.5 };
+        assert_eq!(defines(&GpuScene::new(&ctx, &scene).expect("upload")), (false, true));
+        assert_eq!(
+            defines(&GpuScene::with_moving_meshes(&ctx, &scene, &moving).expect("upload")),
+            (true, true)
+        );
+    }
+
     /// Moving meshes in place (a mirrored, rotated box and a scaled, rotated area light) leaves the
     /// vertex, index and emitter buffers and the scene info exactly as a fresh upload of the moved scene
     /// makes them; the BVH differs by design (instances) and is checked in `gpu/bvh`.
