@@ -10,12 +10,13 @@
 //   @group(G) @binding(C)     var<storage, read> bvh_instances: array<BvhInstance>;  // GpuBvh::instances
 //   fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool
 //
-// Nodes and triangles are linear textures of 16-byte texels (common/linear_texture.wgsl): 4 per node (the BvhNode struct's bytes), 3 per triangle: v0.xyz +
-// original triangle index (u32 bits), v1.xyz + flags (u32 bits, bit 0 = alpha-tested), v2.xyz +
-// padding. Read-only storage textures rather than storage buffers or sampled textures because the
-// traversal loads inside its loop (gpu/linear_texture.rs says why that matters). bvh_alpha_test is called only for hits on
-// triangles flagged alpha-tested, with the original (global) triangle index and the barycentrics of
-// v1 and v2; it returns true for an opaque hit. Shaders without alpha-masked materials can simply
+// Nodes and triangles are linear textures of 16-byte texels (common/linear_texture.wgsl): 4 per node
+// (the BvhNode struct's bytes), 3 per triangle: v0.xyz + original triangle index (u32 bits), v1.xyz +
+// flags (u32 bits, bit 0 = alpha-tested), v2.xyz + padding. Read-only storage textures rather than
+// storage buffers or sampled textures because the traversal loads inside its loop
+// (gpu/linear_texture.rs says why that matters). bvh_alpha_test is called only for hits on triangles
+// flagged alpha-tested, with the original (global) triangle index and the barycentrics of v1 and v2;
+// it returns true for an opaque hit. Shaders without alpha-masked materials can simply
 // `return true;`.
 //
 // Two levels: a child reference with count == BVH_INSTANCE_LEAF is instance `first` (a rigid moving
