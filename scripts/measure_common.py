@@ -137,10 +137,10 @@ def _same(a, b):
 class Bench:
     """One `rtgi bench` run: its results.json and the images it kept."""
 
-    def __init__(self, rtgi, suite, out, images=True):
+    def __init__(self, rtgi, suite, out, images=True, options=()):
         self.rtgi, self.suite, self.out = rtgi, suite, Path(out)
         started = time.time()
-        cmd = [rtgi, "bench", suite, "--out", self.out] + (["--images"] if images else [])
+        cmd = [rtgi, "bench", suite, "--out", self.out] + (["--images"] if images else []) + list(options)
         r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
         self.seconds = time.time() - started
         if not (self.out / "results.json").exists():

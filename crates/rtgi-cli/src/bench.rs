@@ -8,7 +8,6 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use rtgi::bench::{self, BenchResults, BuildInfo, Progress, Shard, Suite, report};
-use rtgi::gpu::{GpuContext, GpuOptions};
 
 #[derive(Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -29,9 +28,8 @@ pub struct BenchArgs {
     /// your own.
     #[arg(long)]
     images: bool,
-    /// Use the GPU adapter whose name contains NAME.
-    #[arg(long, value_name = "NAME")]
-    adapter: Option<String>,
+    #[command(flatten)]
+    gpu: crate::GpuArgs,
 }
 
 #[derive(Subcommand)]
@@ -136,7 +134,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         None => Shard::ALL,
     };
     let suite = Suite::load(suite_path).map_err(|e| anyhow!(e))?;
-    let gpu = GpuContext::new(&GpuOptions { adapter_filter: args.adapter.clone() })?;
+    let gpu = args.gpu.context()?;
     let build = BuildInfo { version: env!("CARGO_PKG_VERSION").into(), commit: commit(suite_path) };
     let cells = suite.cells.iter().filter(|c| shard.contains(c.index)).count();
     let bar = std::io::stderr().is_terminal().then(|| {

@@ -121,6 +121,40 @@ enum Command {
     },
 }
 
+/// How to pick and set up the GPU (`render`, `view` and `bench` take these).
+#[derive(clap::Args, Clone, Debug)]
+pub struct GpuArgs {
+    /// Use the first GPU adapter whose name contains this (case-insensitive).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+    /// Where the BVH keeps its node and triangle tables: auto (textures on CPU adapters, storage
+    /// buffers on GPUs), textures or buffers. Images are identical; only the speed differs. Default:
+    /// $RTGI_BVH_TABLES, else auto.
+    #[arg(long, value_name = "KIND")]
+    pub bvh_tables: Option<rtgi::gpu::BvhTables>,
+}
+
+impl GpuArgs {
+    pub fn options(&self) -> rtgi::gpu::GpuOptions {
+        let defaults = rtgi::gpu::GpuOptions::default();
+        rtgi::gpu::GpuOptions {
+            adapter_filter: self.adapter.clone(),
+            bvh_tables: self.bvh_tables.unwrap_or(defaults.bvh_tables),
+        }
+    }
+
+    /// Opens the device, naming --adapter in the error when it was given.
+    pub fn context(&self) -> anyhow::Result<rtgi::gpu::GpuContext> {
+        rtgi::gpu::GpuContext::new(&self.options()).map_err(|e| {
+            let e = anyhow::Error::new(e);
+            match &self.adapter {
+                Some(name) => e.context(format!("--adapter '{name}'")),
+                None => e,
+            }
+        })
+    }
+}
+
 fn reference(scene: &str, size: &str, spp: u32, set: &[String], out: Option<&Path>) -> anyhow::Result<()> {
     let (width, height) = rtgi::params::parse_size(size).map_err(|e| anyhow::anyhow!("--size {e}"))?;
     if spp == 0 {

@@ -7,7 +7,6 @@ use anyhow::{Context, anyhow, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rtgi::gpu::TimingMode;
-use rtgi::gpu::{GpuContext, GpuOptions};
 use rtgi::image::{FileFormat, ToneMap};
 use rtgi::metrics::sequence::FramePattern;
 use rtgi::params::{parse_setting, parse_size};
@@ -96,9 +95,8 @@ pub struct RenderArgs {
     /// the frame its view's accumulation started at, so a progressive image is reproduced exactly.
     #[arg(long, default_value_t = 0, value_name = "N")]
     first_frame: u32,
-    /// Use the first GPU adapter whose name contains this (case-insensitive).
-    #[arg(long, value_name = "NAME")]
-    adapter: Option<String>,
+    #[command(flatten)]
+    gpu: crate::GpuArgs,
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
@@ -167,13 +165,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .map(|c| rtgi::scene::Camera::parse_placement(c, &scene.camera))
         .transpose()
         .map_err(|e| anyhow!("--camera {e}"))?;
-    let gpu = GpuContext::new(&GpuOptions { adapter_filter: args.adapter.clone() }).map_err(|e| {
-        let e = anyhow::Error::new(e);
-        match &args.adapter {
-            Some(name) => e.context(format!("--adapter '{name}'")),
-            None => e,
-        }
-    })?;
+    let gpu = args.gpu.context()?;
 
     let mut renderer = Renderer::new(
         &gpu,

@@ -153,6 +153,9 @@ pub struct RenderStats {
     pub parameters: BTreeMap<String, String>,
     pub triangles: usize,
     pub bvh_build_ms: f64,
+    /// Where the BVH keeps its node and triangle tables (`textures` or `buffers`, see
+    /// [`crate::gpu::BvhTables`]).
+    pub bvh_tables: String,
     pub gpu_scene_bytes: u64,
     /// Setup work done while running (uploads, builds, shader compilations).
     pub renderer: RendererCounters,
@@ -924,6 +927,7 @@ impl Renderer {
             parameters: self.params.to_map(),
             triangles: self.posed.scene.triangle_count(),
             bvh_build_ms: self.gpu_scene.bvh_build_ms,
+            bvh_tables: self.gpu_scene.bvh_tables().name().to_string(),
             gpu_scene_bytes: self.gpu_scene.memory_bytes,
             renderer: self.counters(),
             time: self.time,

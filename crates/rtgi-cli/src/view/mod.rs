@@ -15,7 +15,6 @@ use std::time::Instant;
 use anyhow::{Context, anyhow, bail};
 use clap::Args;
 use eframe::egui;
-use rtgi::gpu::{GpuContext, GpuOptions};
 use rtgi::params::{parse_setting, parse_size};
 
 use fly::{FlyCamera, FlyInput};
@@ -51,9 +50,8 @@ pub struct ViewArgs {
     /// screenshot FILE, window-screenshot FILE, measure N FILE.json, quit, ...).
     #[arg(long, value_name = "FILE")]
     script: Option<PathBuf>,
-    /// Use the first GPU adapter whose name contains this (case-insensitive).
-    #[arg(long, value_name = "NAME")]
-    adapter: Option<String>,
+    #[command(flatten)]
+    gpu: crate::GpuArgs,
 }
 
 pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
@@ -84,7 +82,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
              run it under a virtual X server (`xvfb-run -a rtgi view ...`), or use `rtgi render`"
         );
     }
-    let gpu = GpuContext::new(&GpuOptions { adapter_filter: args.adapter.clone() })?;
+    let gpu = args.gpu.context()?;
     let shared: Arc<Mutex<Shared>> = Arc::default();
     report_uncaptured_errors(&gpu.device, &shared);
     let options = eframe::NativeOptions {

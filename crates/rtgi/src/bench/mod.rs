@@ -159,6 +159,9 @@ pub struct CellResult {
     /// wgpu's live buffer + texture bytes after the last frame.
     pub gpu_memory_bytes: u64,
     pub gpu_scene_bytes: u64,
+    /// Where the BVH kept its tables (`textures` or `buffers`; `rtgi bench --bvh-tables`).
+    #[serde(default)]
+    pub bvh_tables: String,
     /// Mean over the compared frames.
     pub error: Option<ErrorResult>,
     pub frames: Vec<FrameError>,
@@ -378,6 +381,7 @@ fn run_cell(
         cell_wall_ms: 0.0,
         gpu_memory_bytes: 0,
         gpu_scene_bytes: 0,
+        bvh_tables: String::new(),
         error: None,
         frames: Vec::new(),
         counters: BTreeMap::new(),
@@ -446,6 +450,7 @@ fn run_cell(
             result.gpu_memory_bytes = m.report.gpu_buffer_bytes + m.report.gpu_texture_bytes;
         }
         result.gpu_scene_bytes = stats.gpu_scene_bytes;
+        result.bvh_tables = stats.bvh_tables;
         result.counters = stats.counters;
         result.warnings = stats.warnings;
         Ok(compared)

@@ -181,11 +181,27 @@ fn resident_set_bytes() -> Option<u64> {
     Some(pages * 4096)
 }
 
-/// Options for [`GpuContext::new`].
-#[derive(Clone, Debug, Default)]
+/// Options for [`GpuContext::new`]. The default takes `bvh_tables` from `$RTGI_BVH_TABLES` when set
+/// (so that a whole test run can be made to use one kind, e.g. buffers on lavapipe), else `auto`.
+#[derive(Clone, Debug)]
 pub struct GpuOptions {
     /// Only consider adapters whose name contains this (case-insensitive).
     pub adapter_filter: Option<String>,
+    /// Where BVHs keep their node and triangle tables (`auto`: the faster kind for the adapter).
+    pub bvh_tables: super::bvh::BvhTables,
+}
+
+/// `$RTGI_BVH_TABLES`, parsed, if set.
+fn env_bvh_tables() -> Option<Result<super::bvh::BvhTables, String>> {
+    std::env::var("RTGI_BVH_TABLES").ok().map(|v| v.parse())
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        // A value that does not parse is reported by GpuContext::new.
+        let bvh_tables = env_bvh_tables().and_then(Result::ok).unwrap_or_default();
+        GpuOptions { adapter_filter: None, bvh_tables }
+    }
 }
 
 /// The device every rtgi pass runs on. Cloning is cheap and shares the device.
@@ -200,6 +216,8 @@ pub struct GpuContext {
     /// Timestamp queries inside command encoders are available (their values may still be wrong; see
     /// [`crate::gpu::profiler`]).
     pub has_timestamps: bool,
+    /// Where BVHs uploaded to this device keep their tables, as asked ([`GpuOptions::bvh_tables`]).
+    pub bvh_tables: super::bvh::BvhTables,
     /// Shader modules compiled on this device (each feeds one pipeline): the renderer reports how many
     /// a run created, so per-frame recompilation shows.
     shader_compilations: std::sync::Arc<std::sync::atomic::AtomicU64>,
@@ -256,6 +274,9 @@ impl GpuContext {
     /// one lists every adapter found and why it was skipped. `WGPU_BACKEND` selects backends (default:
     /// Vulkan, Metal, DX12, and GL only when none of them offers a usable adapter).
     pub fn new(options: &GpuOptions) -> Result<Self, GpuError> {
+        if let Some(Err(e)) = env_bvh_tables() {
+            return Err(GpuError::Other(format!("RTGI_BVH_TABLES: {e}")));
+        }
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         // GL is a last resort (no f16, texture atomics or float32 filtering) and probing EGL prints
         // noise on headless machines: try it only when asked for or when no other backend offers a
@@ -303,6 +324,7 @@ impl GpuContext {
                         queue,
                         summary,
                         has_timestamps,
+                        bvh_tables: options.bvh_tables,
                         shader_compilations: Default::default(),
                     };
                     ctx.summary.loop_iteration_limit = super::kernel::loop_iteration_limit(&ctx)?;

@@ -13,7 +13,7 @@ pub mod readback;
 pub mod resources;
 pub mod scene;
 
-pub use bvh::{Bvh, GpuBvh};
+pub use bvh::{Bvh, BvhTables, GpuBvh};
 pub use context::{AdapterSummary, GpuContext, GpuError, GpuOptions, MemoryReport};
 pub use features::{Need, require};
 pub use mips::MipGenerator;

@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use wgpu::util::DeviceExt;
 
-use super::bvh::{Bvh, GpuBvh, InstancedBvh, SceneTriangles, TopLevel};
+use super::bvh::{Bvh, BvhTables, GpuBvh, InstancedBvh, SceneTriangles, TopLevel};
 use super::resources::buffer_layout_entry;
 use super::{GpuContext, GpuError, linear_texture};
 use crate::scene::{AlphaMode, Environment, Light, Scene};
@@ -396,38 +396,26 @@ fn texture_layout_entry(
     }
 }
 
-/// A linear texture of `format` bound as a read-only storage texture, visible to every stage.
-fn read_only_table_layout_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-        ..super::resources::storage_texture_layout_entry(
-            binding,
-            format,
-            wgpu::StorageTextureAccess::ReadOnly,
-            wgpu::TextureViewDimension::D2,
-        )
-    }
-}
-
-/// Storage buffers in bind group 0, visible to every stage: the least any adapter must bind per stage.
+/// Storage buffers in bind group 0, visible to every stage, with the BVH's tables in textures: the
+/// least any adapter must bind per stage (two more with them in buffers, see [`BvhTables`]).
 pub const SCENE_STORAGE_BUFFERS: u32 = 7;
 
-/// The entries of bind group 0 (`common/scene.wgsl`).
-fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
+/// The entries of bind group 0 (`common/scene.wgsl`) with the BVH's tables as `tables` says.
+fn scene_layout_entries(tables: BvhTables) -> [wgpu::BindGroupLayoutEntry; 15] {
     let all = wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE;
     const D2: wgpu::TextureViewDimension = wgpu::TextureViewDimension::D2;
     let filterable = wgpu::TextureSampleType::Float { filterable: true };
     let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
+    let bvh_tables = tables.layout_entries(5, all);
     [
         buffer_layout_entry(0, all, wgpu::BufferBindingType::Uniform),
         storage_layout_entry(1),
         storage_layout_entry(2),
         storage_layout_entry(3),
         storage_layout_entry(4),
-        // The BVH's nodes and triangles (`common/bvh.wgsl`), read-only storage textures
-        // (gpu/linear_texture.rs says why).
-        read_only_table_layout_entry(5, wgpu::TextureFormat::Rgba32Uint),
-        read_only_table_layout_entry(6, wgpu::TextureFormat::Rgba32Uint),
+        // The BVH's nodes and triangles (`common/bvh.wgsl`).
+        bvh_tables[0],
+        bvh_tables[1],
         storage_layout_entry(7),
         texture_layout_entry(8, wgpu::TextureViewDimension::D2Array, filterable),
         texture_layout_entry(9, wgpu::TextureViewDimension::D2Array, filterable),
@@ -444,11 +432,12 @@ fn scene_layout_entries() -> [wgpu::BindGroupLayoutEntry; 15] {
     ]
 }
 
-/// The layout of bind group 0; every pipeline that imports `common/scene.wgsl` uses it.
-pub fn scene_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+/// The layout of bind group 0 with the BVH's tables as `tables` says (`Textures` or `Buffers`); every
+/// pipeline that imports `common/scene.wgsl` uses its scene's ([`GpuScene::bind_group_layout`]).
+fn scene_bind_group_layout(device: &wgpu::Device, tables: BvhTables) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("scene"),
-        entries: &scene_layout_entries(),
+        entries: &scene_layout_entries(tables),
     })
 }
 
@@ -869,7 +858,7 @@ impl GpuScene {
             ..Default::default()
         });
 
-        let layout = scene_bind_group_layout(device);
+        let layout = scene_bind_group_layout(device, gpu_bvh.tables);
         let array_view = |t: &wgpu::Texture| {
             t.create_view(&wgpu::TextureViewDescriptor {
                 dimension: Some(wgpu::TextureViewDimension::D2Array),
@@ -1034,10 +1023,19 @@ impl GpuScene {
             .collect()
     }
 
-    /// `defines` plus the BVH variant this scene needs (`BVH_INSTANCES` and `BVH_ALPHA_TESTS`, see
-    /// `common/bvh.wgsl`): every pipeline that traces rays is built with them.
+    /// `defines` plus the BVH variant this scene needs (`BVH_INSTANCES`, `BVH_ALPHA_TESTS` and
+    /// `BVH_TABLES_IN_BUFFERS`, see `common/bvh.wgsl`): every pipeline that traces rays is built with
+    /// them.
     pub fn bvh_defines(&self, defines: crate::shaders::Defines) -> crate::shaders::Defines {
-        defines.bool("BVH_INSTANCES", self.has_instances()).bool("BVH_ALPHA_TESTS", self.bvh.alpha_tested)
+        defines
+            .bool("BVH_INSTANCES", self.has_instances())
+            .bool("BVH_ALPHA_TESTS", self.bvh.alpha_tested)
+            .bool("BVH_TABLES_IN_BUFFERS", self.bvh.tables == BvhTables::Buffers)
+    }
+
+    /// Where the BVH keeps its node and triangle tables (`Textures` or `Buffers`).
+    pub fn bvh_tables(&self) -> BvhTables {
+        self.bvh.tables
     }
 
     /// Moves meshes in place: `scene` is the uploaded scene posed anew, in which the meshes `moved`
@@ -1298,13 +1296,19 @@ mod tests {
 
     #[test]
     fn scene_storage_buffer_count_matches_the_layout() {
-        let storage = scene_layout_entries()
-            .iter()
-            .filter(|e| {
-                matches!(e.ty, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { .. }, .. })
-            })
-            .count();
-        assert_eq!(storage as u32, SCENE_STORAGE_BUFFERS);
+        let storage = |tables| {
+            scene_layout_entries(tables)
+                .iter()
+                .filter(|e| {
+                    matches!(
+                        e.ty,
+                        wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { .. }, .. }
+                    )
+                })
+                .count() as u32
+        };
+        assert_eq!(storage(BvhTables::Textures), SCENE_STORAGE_BUFFERS);
+        assert_eq!(storage(BvhTables::Buffers), SCENE_STORAGE_BUFFERS + 2);
     }
 
     /// Pipelines that trace get the traversal the scene needs: the instance branches only with moving

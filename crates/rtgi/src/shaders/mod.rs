@@ -1,8 +1,10 @@
 //! The WGSL library and its composer.
 //!
-//! Shaders are plain WGSL with one extension: a line `#import common/NAME.wgsl` inlines a module of
-//! the shared library (once per shader, dependencies first). Constants that Rust and WGSL share are
-//! generated from Rust through [`Defines`], so there is a single source of truth for them.
+//! Shaders are plain WGSL with two extensions: a line `#import common/NAME.wgsl` inlines a module of
+//! the shared library (once per shader, dependencies first), and lines `#if NAME` / `#else` / `#endif`
+//! keep or drop the lines between them by a bool define (for declarations, whose types WGSL cannot
+//! choose by a constant: the BVH's tables as textures or buffers). Constants that Rust and WGSL share
+//! are generated from Rust through [`Defines`], so there is a single source of truth for them.
 //!
 //! Every module and technique shader is validated with naga in unit tests, so a WGSL error fails
 //! `cargo test` rather than a render.
@@ -90,6 +92,32 @@ impl Defines {
         self.lines.push(format!("const {name}: bool = {value};"));
         self
     }
+
+    /// The value of the bool constant `name`, if defined.
+    pub fn bool_value(&self, name: &str) -> Option<bool> {
+        let prefix = format!("const {name}: bool = ");
+        self.lines.iter().find_map(|l| match l.strip_prefix(&prefix)? {
+            "true;" => Some(true),
+            "false;" => Some(false),
+            _ => None,
+        })
+    }
+}
+
+/// Bool defines a shader that includes `common/bvh.wgsl` gets unless it sets them: the traversal that
+/// handles instances and alpha tests (correct for every scene; `GpuScene::bvh_defines` selects the
+/// faster one without them where a scene has none), with its tables in textures (`BvhTables`).
+const BVH_DEFAULTS: [(&str, bool); 3] =
+    [("BVH_INSTANCES", true), ("BVH_ALPHA_TESTS", true), ("BVH_TABLES_IN_BUFFERS", false)];
+
+fn condition(shader: &str, name: &str, defines: &Defines) -> Result<bool, ShaderError> {
+    defines
+        .bool_value(name)
+        .or_else(|| BVH_DEFAULTS.iter().find(|(n, _)| *n == name).map(|(_, v)| *v))
+        .ok_or_else(|| ShaderError {
+            shader: shader.into(),
+            message: format!("#if {name}: no bool define of that name"),
+        })
 }
 
 fn module_source(path: &str) -> Option<&'static str> {
@@ -99,13 +127,38 @@ fn module_source(path: &str) -> Option<&'static str> {
 fn append_resolved(
     shader: &str,
     source: &str,
+    defines: &Defines,
     seen: &mut HashSet<String>,
     stack: &mut Vec<String>,
     out: &mut String,
 ) -> Result<(), ShaderError> {
+    let here = stack.last().map(String::as_str).unwrap_or(shader).to_string();
+    let error = |message: String| ShaderError { shader: shader.into(), message };
     let mut body = String::new();
+    // Open #if blocks: (whether their condition holds, whether #else was seen).
+    let mut blocks: Vec<(bool, bool)> = Vec::new();
     for line in source.lines() {
         let trimmed = line.trim();
+        if let Some(name) = trimmed.strip_prefix("#if ") {
+            blocks.push((condition(shader, name.trim(), defines)?, false));
+            continue;
+        }
+        if trimmed == "#else" {
+            match blocks.last_mut() {
+                Some((_, seen_else @ false)) => *seen_else = true,
+                _ => return Err(error(format!("{here}: #else without #if"))),
+            }
+            continue;
+        }
+        if trimmed == "#endif" {
+            if blocks.pop().is_none() {
+                return Err(error(format!("{here}: #endif without #if")));
+            }
+            continue;
+        }
+        if !blocks.iter().all(|&(holds, in_else)| holds != in_else) {
+            continue;
+        }
         if let Some(path) = trimmed.strip_prefix("#import ") {
             let path = path.trim().trim_matches('"');
             if stack.iter().any(|p| p == path) {
@@ -120,7 +173,7 @@ fn append_resolved(
                     message: format!("unknown module '{path}'"),
                 })?;
                 stack.push(path.to_string());
-                append_resolved(shader, src, seen, stack, out)?;
+                append_resolved(shader, src, defines, seen, stack, out)?;
                 stack.pop();
             }
         } else {
@@ -128,15 +181,17 @@ fn append_resolved(
             body.push('\n');
         }
     }
+    if !blocks.is_empty() {
+        return Err(error(format!("{here}: #if without #endif")));
+    }
     let _ = writeln!(out, "// ---- {} ----", stack.last().map(String::as_str).unwrap_or(shader));
     out.push_str(&body);
     Ok(())
 }
 
-/// Resolves the imports of `source` (named `shader` in errors) and prepends `defines`. A shader that
-/// includes `common/bvh.wgsl` without defining `BVH_INSTANCES` or `BVH_ALPHA_TESTS` gets the
-/// traversal that handles instances and alpha tests (correct for every scene; `GpuScene::bvh_defines`
-/// selects the faster one without them where a scene has none).
+/// Resolves the imports and `#if` blocks of `source` (named `shader` in errors) and prepends
+/// `defines`. A shader that includes `common/bvh.wgsl` gets [`BVH_DEFAULTS`] for what it leaves
+/// undefined.
 pub fn compose(shader: &str, source: &str, defines: &Defines) -> Result<String, ShaderError> {
     let mut out = String::new();
     for line in &defines.lines {
@@ -144,11 +199,11 @@ pub fn compose(shader: &str, source: &str, defines: &Defines) -> Result<String, 
         out.push('\n');
     }
     let mut seen = HashSet::new();
-    append_resolved(shader, source, &mut seen, &mut Vec::new(), &mut out)?;
+    append_resolved(shader, source, defines, &mut seen, &mut Vec::new(), &mut out)?;
     if seen.contains("common/bvh.wgsl") {
-        for name in ["BVH_INSTANCES", "BVH_ALPHA_TESTS"] {
+        for (name, value) in BVH_DEFAULTS {
             if !defines.has(name) {
-                out.insert_str(0, &format!("const {name}: bool = true;\n"));
+                out.insert_str(0, &format!("const {name}: bool = {value};\n"));
             }
         }
     }
@@ -219,6 +274,25 @@ mod tests {
         assert!(compose("t", "#import common/nope.wgsl\n", &Defines::new()).is_err());
         let code = compose("t", "", &Defines::new().u32("N", 3).f32("X", 0.5)).unwrap();
         assert!(code.contains("const N: u32 = 3u;") && code.contains("const X: f32 = 0.5;"));
+    }
+
+    #[test]
+    fn if_blocks_keep_the_lines_their_define_selects() {
+        let source = "a\n#if A\nb\n#if B\nc\n#else\nd\n#endif\n#else\ne\n#endif\nf\n";
+        let body = |a: bool, b: bool| {
+            let code = compose("t", source, &Defines::new().bool("A", a).bool("B", b)).unwrap();
+            code.lines().filter(|l| l.len() == 1).collect::<String>()
+        };
+        assert_eq!(body(true, true), "abcf");
+        assert_eq!(body(true, false), "abdf");
+        assert_eq!(body(false, true), "aef");
+        assert_eq!(body(false, false), "aef");
+        for bad in ["#if A\n", "#endif\n", "#else\n", "#if A\n#else\n#else\n#endif\n", "#if C\n#endif\n"] {
+            assert!(compose("t", bad, &Defines::new().bool("A", true)).is_err(), "{bad:?}");
+        }
+        // The BVH's own switches have defaults (the traversal that is correct for every scene).
+        let code = compose("t", "#if BVH_TABLES_IN_BUFFERS\nx\n#else\ny\n#endif\n", &Defines::new()).unwrap();
+        assert!(code.lines().any(|l| l == "y") && !code.lines().any(|l| l == "x"));
     }
 }
 

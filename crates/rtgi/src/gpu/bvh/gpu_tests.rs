@@ -37,8 +37,13 @@ struct TestResult {
     _pad2: u32,
 }
 
+#if BVH_TABLES_IN_BUFFERS
+@group(0) @binding(0) var<storage, read> bvh_nodes: array<vec4u>;
+@group(0) @binding(1) var<storage, read> bvh_tris: array<vec4u>;
+#else
 @group(0) @binding(0) var bvh_nodes: texture_storage_2d<rgba32uint, read>;
 @group(0) @binding(1) var bvh_tris: texture_storage_2d<rgba32uint, read>;
+#endif
 @group(0) @binding(2) var<storage, read> bvh_instances: array<BvhInstance>;
 @group(0) @binding(3) var<storage, read> rays: array<TestRay>;
 @group(0) @binding(4) var<storage, read_write> results: array<TestResult>;
@@ -120,10 +125,12 @@ impl Harness {
     fn with_source(ctx: &GpuContext, bvh: &Bvh, mode: u32, source: &str) -> Result<Harness, GpuError> {
         // The traversal a scene with this BVH gets: single-level unless it has instances, without the
         // alpha test unless a triangle is alpha-tested.
+        let gpu_bvh = GpuBvh::new(ctx, bvh)?;
         let defines = Defines::new()
             .u32("MODE", mode)
             .bool("BVH_INSTANCES", !bvh.instances.is_empty())
-            .bool("BVH_ALPHA_TESTS", bvh.has_alpha_tested());
+            .bool("BVH_ALPHA_TESTS", bvh.has_alpha_tested())
+            .bool("BVH_TABLES_IN_BUFFERS", gpu_bvh.tables == BvhTables::Buffers);
         let module = shaders::create_module(ctx, "bvh harness", source, &defines)
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -134,7 +141,7 @@ impl Harness {
             compilation_options: Default::default(),
             cache: None,
         });
-        Ok(Harness { pipeline, bvh: GpuBvh::new(ctx, bvh)? })
+        Ok(Harness { pipeline, bvh: gpu_bvh })
     }
 
     /// Traces `rays` and returns the results and the GPU time (submit to idle, uploads excluded).
@@ -425,8 +432,13 @@ const ARITHMETIC_KERNEL: &str = r#"
 #import common/bvh.wgsl
 
 // bvh.wgsl's contract; unused here.
+#if BVH_TABLES_IN_BUFFERS
+@group(1) @binding(0) var<storage, read> bvh_nodes: array<vec4u>;
+@group(1) @binding(1) var<storage, read> bvh_tris: array<vec4u>;
+#else
 @group(1) @binding(0) var bvh_nodes: texture_storage_2d<rgba32uint, read>;
 @group(1) @binding(1) var bvh_tris: texture_storage_2d<rgba32uint, read>;
+#endif
 @group(1) @binding(2) var<storage, read> bvh_instances: array<BvhInstance>;
 fn bvh_alpha_test(triangle: u32, u: f32, v: f32) -> bool {
     return true;
@@ -549,11 +561,14 @@ fn bvh_harness_shader_validates() {
         assert!(module.global_variables.iter().any(|(_, g)| g.name.as_deref() == Some("bvh_nodes")));
         for instances in [false, true] {
             for alpha_tests in [false, true] {
-                let defines = Defines::new()
-                    .u32("MODE", mode)
-                    .bool("BVH_INSTANCES", instances)
-                    .bool("BVH_ALPHA_TESTS", alpha_tests);
-                shaders::validate("bvh harness", HARNESS, &defines);
+                for buffers in [false, true] {
+                    let defines = Defines::new()
+                        .u32("MODE", mode)
+                        .bool("BVH_INSTANCES", instances)
+                        .bool("BVH_ALPHA_TESTS", alpha_tests)
+                        .bool("BVH_TABLES_IN_BUFFERS", buffers);
+                    shaders::validate("bvh harness", HARNESS, &defines);
+                }
             }
         }
     }
@@ -581,6 +596,31 @@ fn bvh_gpu_matches_cpu_on_sphere_in_box() {
     let ctx = context();
     let tris = geo::sphere_in_box();
     check_gpu_traversal(&ctx, "GPU sphere in box", &tris, false, 6000, 6000);
+}
+
+/// The tables in storage buffers (what GPUs get) trace what the CPU twin traces, as in textures.
+#[test]
+fn bvh_gpu_matches_cpu_with_tables_in_buffers() {
+    let options = crate::gpu::GpuOptions { bvh_tables: BvhTables::Buffers, ..Default::default() };
+    let ctx = GpuContext::new(&options).expect("a GPU adapter (lavapipe) for the BVH tests");
+    let tris = geo::triangle_soup(10_000, 37);
+    let (r, _) = check_gpu_traversal(&ctx, "GPU soup, tables in buffers", &tris, true, 3000, 3000);
+    assert!(r.hits > r.rays / 4);
+    let scene = geo::instanced_scene(41);
+    let mut bvh = super::InstancedBvh::build(&scene.tris, &scene.moving).expect("build");
+    bvh.place(&scene.transforms);
+    let harness = Harness::new(&ctx, &bvh.bvh, 0).expect("harness");
+    assert_eq!(harness.bvh.tables, BvhTables::Buffers);
+    let (r, _) = check_gpu_traversal_of(
+        &ctx,
+        "GPU instances, tables in buffers",
+        &bvh.bvh,
+        &scene.world,
+        &scene.tris.alpha_tested,
+        3000,
+        3000,
+    );
+    assert!(r.hits > r.rays / 4);
 }
 
 #[test]

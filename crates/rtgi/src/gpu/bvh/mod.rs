@@ -6,7 +6,8 @@
 //!   references and GPU results take every hit-or-miss decision alike, bit for bit on a GPU with a
 //!   fused `fma` (hit distances may differ by the GPU's division error); [`intersect_brute_force`]
 //!   checks both.
-//! - [`GpuBvh`]: the two linear textures `bvh.wgsl` reads (`bvh_nodes`, `bvh_tris`).
+//! - [`GpuBvh`]: the two tables `bvh.wgsl` reads (`bvh_nodes`, `bvh_tris`), in textures or buffers
+//!   ([`BvhTables`]).
 //!
 //! GPU layout (all `#[repr(C)]`, matching WGSL's storage layout):
 //! - [`BvhNode`], 64 bytes: a node of the 4-wide BVH (see [`wide`] for how the binary SAH tree is
@@ -352,21 +353,171 @@ impl Bvh {
     }
 }
 
-/// Bytes of one texel of the node and triangle textures (rgba32uint).
+/// Bytes of one texel of the node and triangle textures (rgba32uint), one element of their buffers.
 const BVH_TEXEL_BYTES: usize = 16;
 /// Texels per node and per triangle (`BVH_NODE_TEXELS`, `BVH_TRIANGLE_TEXELS` in `bvh.wgsl`).
 pub const BVH_NODE_TEXELS: usize = size_of::<BvhNode>() / BVH_TEXEL_BYTES;
 pub const BVH_TRIANGLE_TEXELS: usize = size_of::<BvhTriangle>() / BVH_TEXEL_BYTES;
 
-/// The BVH on the GPU, as `bvh.wgsl` expects it: `bvh_nodes` and `bvh_tris` as linear textures of
-/// 16-byte texels (the arrays' bytes in order) bound as read-only storage textures (see
-/// [`linear_texture`], which says why),
+/// Storage buffers an adapter must bind per stage before [`BvhTables::Auto`] puts the tables in two
+/// more: lavapipe's Vulkan limit, under which every pipeline fits with the tables as textures.
+const AUTO_BUFFERS_MIN_PER_STAGE: u32 = 32;
+
+/// Where a [`GpuBvh`] keeps its node and triangle tables (`BVH_TABLES_IN_BUFFERS` in
+/// `common/bvh.wgsl`). The traversal loads them inside its loop, where drivers differ: lavapipe loads a
+/// storage buffer inside a loop lane by lane but an image for all lanes at once, and inlines a storage
+/// image's load where a sampled texture's is a function call (the path tracer 1.4–1.7× and then 1.16×
+/// faster, see `gpu/linear_texture.rs`). On an H200 the 4-wide BVH in storage buffers took 26.1 ms per
+/// frame of `path` on `atrium:detail=5` at 1080p and in sampled textures 25.3 ms (one run each, README);
+/// storage images there are unmeasured, and NVIDIA GPUs load them through the surface path rather than
+/// the texture or the memory path, so GPUs get buffers, the known case. Both kinds hold the same bytes,
+/// read in the same order: images are identical. `rtgi render --bvh-tables` (and
+/// `scripts/measure-traversal.py`) compares them on an adapter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BvhTables {
+    /// Textures on CPU adapters; buffers on GPUs that bind at least [`AUTO_BUFFERS_MIN_PER_STAGE`]
+    /// storage buffers per stage, where both tables fit one storage binding; textures otherwise.
+    #[default]
+    Auto,
+    /// Read-only storage textures (`texture_storage_2d<rgba32uint, read>`, linear textures).
+    Textures,
+    /// Read-only storage buffers (`array<vec4u>`).
+    Buffers,
+}
+
+impl BvhTables {
+    pub const NAMES: [&'static str; 3] = ["auto", "textures", "buffers"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            BvhTables::Auto => "auto",
+            BvhTables::Textures => "textures",
+            BvhTables::Buffers => "buffers",
+        }
+    }
+
+    /// The kind (never `Auto`) for tables of `bytes` bytes each on `ctx`; an explicit `Buffers` that
+    /// the device cannot bind fails with [`GpuError::OverLimit`] naming the table.
+    fn resolve(self, ctx: &GpuContext, bytes: [u64; 2]) -> Result<BvhTables, GpuError> {
+        let limits = ctx.limits();
+        let per_stage = super::scene::SCENE_STORAGE_BUFFERS + 2;
+        let fits = bytes.iter().all(|&b| b <= limits.max_storage_buffer_binding_size);
+        match self {
+            BvhTables::Textures => Ok(BvhTables::Textures),
+            BvhTables::Buffers => {
+                ctx.check_storage_size("BVH node buffer", bytes[0])?;
+                ctx.check_storage_size("BVH triangle buffer", bytes[1])?;
+                if limits.max_storage_buffers_per_shader_stage < per_stage {
+                    return Err(GpuError::OverLimit(format!(
+                        "BVH tables in buffers need {per_stage} storage buffers per shader stage, over the \
+                         device's max_storage_buffers_per_shader_stage of {}",
+                        limits.max_storage_buffers_per_shader_stage
+                    )));
+                }
+                Ok(BvhTables::Buffers)
+            }
+            BvhTables::Auto => {
+                let gpu = ctx.adapter.get_info().device_type != wgpu::DeviceType::Cpu;
+                let room = limits.max_storage_buffers_per_shader_stage >= AUTO_BUFFERS_MIN_PER_STAGE;
+                Ok(if gpu && room && fits { BvhTables::Buffers } else { BvhTables::Textures })
+            }
+        }
+    }
+
+    /// Layout entries of `bvh_nodes` and `bvh_tris` at `first_binding` and the binding after it.
+    pub fn layout_entries(
+        self,
+        first_binding: u32,
+        visibility: wgpu::ShaderStages,
+    ) -> [wgpu::BindGroupLayoutEntry; 2] {
+        let entry = |binding| wgpu::BindGroupLayoutEntry {
+            visibility,
+            ..match self {
+                BvhTables::Buffers => super::resources::buffer_layout_entry(
+                    binding,
+                    visibility,
+                    wgpu::BufferBindingType::Storage { read_only: true },
+                ),
+                _ => super::resources::storage_texture_layout_entry(
+                    binding,
+                    wgpu::TextureFormat::Rgba32Uint,
+                    wgpu::StorageTextureAccess::ReadOnly,
+                    wgpu::TextureViewDimension::D2,
+                ),
+            }
+        };
+        [entry(first_binding), entry(first_binding + 1)]
+    }
+}
+
+impl std::str::FromStr for BvhTables {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        [BvhTables::Auto, BvhTables::Textures, BvhTables::Buffers]
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| {
+                format!("unknown BVH table kind '{s}' (expected one of {})", Self::NAMES.join(", "))
+            })
+    }
+}
+
+/// One of the BVH's tables on the device, 16-byte elements in order.
+enum BvhTable {
+    Texture { texture: wgpu::Texture, view: wgpu::TextureView },
+    Buffer(wgpu::Buffer),
+}
+
+impl BvhTable {
+    fn new(ctx: &GpuContext, label: &str, data: &[u8], kind: BvhTables) -> Result<BvhTable, GpuError> {
+        if kind == BvhTables::Buffers {
+            return Ok(BvhTable::Buffer(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: data,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+            })));
+        }
+        let texels = (data.len() / BVH_TEXEL_BYTES) as u64;
+        // create checks it against the device's texture limits, naming it.
+        let texture = linear_texture::create_storage(ctx, label, wgpu::TextureFormat::Rgba32Uint, texels)?;
+        linear_texture::write(ctx, &texture, data);
+        Ok(BvhTable::Texture { view: texture.create_view(&Default::default()), texture })
+    }
+
+    /// Writes `data` over the table's first bytes.
+    fn write(&self, ctx: &GpuContext, data: &[u8]) {
+        match self {
+            BvhTable::Texture { texture, .. } => linear_texture::write(ctx, texture, data),
+            BvhTable::Buffer(buffer) => ctx.queue.write_buffer(buffer, 0, data),
+        }
+    }
+
+    fn bytes(&self) -> u64 {
+        match self {
+            BvhTable::Texture { texture, .. } => linear_texture::bytes(texture),
+            BvhTable::Buffer(buffer) => buffer.size(),
+        }
+    }
+
+    fn resource(&self) -> wgpu::BindingResource<'_> {
+        match self {
+            BvhTable::Texture { view, .. } => wgpu::BindingResource::TextureView(view),
+            BvhTable::Buffer(buffer) => buffer.as_entire_binding(),
+        }
+    }
+}
+
+/// The BVH on the GPU, as `bvh.wgsl` expects it: `bvh_nodes` and `bvh_tris`, 16-byte elements (the
+/// arrays' bytes in order) in read-only storage textures or buffers ([`BvhTables`]), and
 /// `bvh_instances` as a storage buffer.
 pub struct GpuBvh {
-    pub nodes: wgpu::Texture,
-    pub triangles: wgpu::Texture,
-    nodes_view: wgpu::TextureView,
-    triangles_view: wgpu::TextureView,
+    nodes: BvhTable,
+    triangles: BvhTable,
+    /// Where the tables are (`Textures` or `Buffers`, never `Auto`).
+    pub tables: BvhTables,
     /// At least one entry (zeroed and never read for a single-level BVH): no binding is zero-sized.
     pub instances: wgpu::Buffer,
     pub node_count: u32,
@@ -377,19 +528,25 @@ pub struct GpuBvh {
 }
 
 impl GpuBvh {
-    /// Uploads `bvh`; fails with [`GpuError::OverLimit`] naming the texture if it exceeds the device.
+    /// Uploads `bvh` with its tables where the context asks ([`GpuContext::bvh_tables`]).
     pub fn new(ctx: &GpuContext, bvh: &Bvh) -> Result<GpuBvh, GpuError> {
+        Self::with_tables(ctx, bvh, ctx.bvh_tables)
+    }
+
+    /// Uploads `bvh` with its tables as `tables` says; fails with [`GpuError::OverLimit`] naming the
+    /// table if one exceeds the device.
+    pub fn with_tables(ctx: &GpuContext, bvh: &Bvh, tables: BvhTables) -> Result<GpuBvh, GpuError> {
         let nodes: &[u8] = bytemuck::cast_slice(&bvh.nodes);
         let tris: &[u8] = bytemuck::cast_slice(&bvh.triangles);
-        let texels = |bytes: &[u8]| (bytes.len() / BVH_TEXEL_BYTES) as u64;
-        let format = wgpu::TextureFormat::Rgba32Uint;
+        let tables = tables.resolve(ctx, [nodes.len() as u64, tris.len() as u64])?;
+        let (node_label, tri_label) = match tables {
+            BvhTables::Buffers => ("BVH node buffer", "BVH triangle buffer"),
+            _ => ("BVH node texture", "BVH triangle texture"),
+        };
         // Allocation failures are reported asynchronously by wgpu; the scope turns them into a result.
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        // create checks each against the device's texture limits, naming it.
-        let node_texture = linear_texture::create_storage(ctx, "BVH node texture", format, texels(nodes))?;
-        linear_texture::write(ctx, &node_texture, nodes);
-        let tri_texture = linear_texture::create_storage(ctx, "BVH triangle texture", format, texels(tris))?;
-        linear_texture::write(ctx, &tri_texture, tris);
+        let node_table = BvhTable::new(ctx, node_label, nodes, tables)?;
+        let tri_table = BvhTable::new(ctx, tri_label, tris, tables)?;
         let placeholder = [BvhInstance::zeroed()];
         let instances = if bvh.instances.is_empty() { &placeholder[..] } else { &bvh.instances[..] };
         let instance_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -401,10 +558,9 @@ impl GpuBvh {
             return Err(GpuError::Other(format!("allocating the BVH: {e}")));
         }
         Ok(GpuBvh {
-            nodes_view: node_texture.create_view(&Default::default()),
-            triangles_view: tri_texture.create_view(&Default::default()),
-            nodes: node_texture,
-            triangles: tri_texture,
+            nodes: node_table,
+            triangles: tri_table,
+            tables,
             instances: instance_buffer,
             node_count: bvh.nodes.len() as u32,
             triangle_count: bvh.triangles.len() as u32,
@@ -414,29 +570,24 @@ impl GpuBvh {
 
     /// Writes the top level and instances of `bvh` (placed anew) over those uploaded from it.
     pub fn update_top_level(&self, ctx: &GpuContext, top: &TopLevel) {
-        linear_texture::write(ctx, &self.nodes, bytemuck::cast_slice(&top.nodes));
+        self.nodes.write(ctx, bytemuck::cast_slice(&top.nodes));
         if !top.instances.is_empty() {
             ctx.queue.write_buffer(&self.instances, 0, bytemuck::cast_slice(&top.instances));
         }
     }
 
-    /// Bytes of GPU memory the BVH takes (textures with their last rows' padding, and instances).
+    /// Bytes of GPU memory the BVH takes (tables, a texture's last row's padding included, and
+    /// instances).
     pub fn bytes(&self) -> u64 {
-        linear_texture::bytes(&self.nodes) + linear_texture::bytes(&self.triangles) + self.instances.size()
+        self.nodes.bytes() + self.triangles.bytes() + self.instances.size()
     }
 
     /// Bind group entries for `bvh_nodes`, `bvh_tris` and `bvh_instances` at `first_binding` and the
     /// two bindings after it.
     pub fn bind_entries(&self, first_binding: u32) -> [wgpu::BindGroupEntry<'_>; 3] {
         [
-            wgpu::BindGroupEntry {
-                binding: first_binding,
-                resource: wgpu::BindingResource::TextureView(&self.nodes_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: first_binding + 1,
-                resource: wgpu::BindingResource::TextureView(&self.triangles_view),
-            },
+            wgpu::BindGroupEntry { binding: first_binding, resource: self.nodes.resource() },
+            wgpu::BindGroupEntry { binding: first_binding + 1, resource: self.triangles.resource() },
             wgpu::BindGroupEntry { binding: first_binding + 2, resource: self.instances.as_entire_binding() },
         ]
     }

@@ -97,21 +97,40 @@ struct BvhInstance {
     root: u32,
 }
 
+// Element i of the node table and of the triangle table.
+#if BVH_TABLES_IN_BUFFERS
+fn bvh_node_element(i: u32) -> vec4u {
+    return bvh_nodes[i];
+}
+
+fn bvh_triangle_element(i: u32) -> vec4u {
+    return bvh_tris[i];
+}
+#else
+fn bvh_node_element(i: u32) -> vec4u {
+    return textureLoad(bvh_nodes, linear_texel(i));
+}
+
+fn bvh_triangle_element(i: u32) -> vec4u {
+    return textureLoad(bvh_tris, linear_texel(i));
+}
+#endif
+
 fn bvh_node(i: u32) -> BvhNode {
     let first = BVH_NODE_TEXELS * i;
-    let a = textureLoad(bvh_nodes, linear_texel(first));
-    let children = textureLoad(bvh_nodes, linear_texel(first + 1u));
-    let lo = textureLoad(bvh_nodes, linear_texel(first + 2u));
-    let hi = textureLoad(bvh_nodes, linear_texel(first + 3u));
+    let a = bvh_node_element(first);
+    let children = bvh_node_element(first + 1u);
+    let lo = bvh_node_element(first + 2u);
+    let hi = bvh_node_element(first + 3u);
     return BvhNode(bitcast<vec3f>(a.xyz), a.w, children, lo.xyz, lo.w, hi.xyz);
 }
 
-// Texel j (0..3) of triangle i (BVH order), as the words it holds.
+// Element j (0..3) of triangle i (BVH order), as the words it holds.
 fn bvh_triangle_words(i: u32, j: u32) -> vec4u {
-    return textureLoad(bvh_tris, linear_texel(BVH_TRIANGLE_TEXELS * i + j));
+    return bvh_triangle_element(BVH_TRIANGLE_TEXELS * i + j);
 }
 
-// Texel j of triangle i as floats (the vertex positions in xyz).
+// Element j of triangle i as floats (the vertex positions in xyz).
 fn bvh_triangle_texel(i: u32, j: u32) -> vec4f {
     return bitcast<vec4f>(bvh_triangle_words(i, j));
 }

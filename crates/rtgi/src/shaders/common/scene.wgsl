@@ -97,8 +97,14 @@ struct SceneInfo {
 @group(0) @binding(2) var<storage, read> indices: array<u32>;
 @group(0) @binding(3) var<storage, read> materials: array<Material>;
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
+// The BVH's tables, where the scene's GpuBvh keeps them (gpu/bvh/mod.rs `BvhTables`).
+#if BVH_TABLES_IN_BUFFERS
+@group(0) @binding(5) var<storage, read> bvh_nodes: array<vec4u>;
+@group(0) @binding(6) var<storage, read> bvh_tris: array<vec4u>;
+#else
 @group(0) @binding(5) var bvh_nodes: texture_storage_2d<rgba32uint, read>;
 @group(0) @binding(6) var bvh_tris: texture_storage_2d<rgba32uint, read>;
+#endif
 @group(0) @binding(7) var<storage, read> emissive_triangles: array<EmissiveTriangle>;
 @group(0) @binding(8) var textures_srgb: texture_2d_array<f32>;
 @group(0) @binding(9) var textures_linear: texture_2d_array<f32>;

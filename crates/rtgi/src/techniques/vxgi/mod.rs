@@ -488,7 +488,8 @@ impl Vxgi {
             _ => Vec::new(),
         });
 
-        let defines = settings.defines();
+        // Voxelisation traces (its conservative coverage test): the scene's traversal variant.
+        let defines = setup.gpu_scene.bvh_defines(settings.defines());
         let layouts = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout];
         let pipeline = |name: &str, source: &str, entry: &str| {
             compute::pipeline(ctx, name, source, defines.clone(), entry, &layouts)
