@@ -7,9 +7,10 @@ beside the rsm gather of the same light (issue 15, item 3).
 
 Runs `rtgi bench benches/splat.toml --images` (every built-in scene; 256 VPLs for sii, 256 samples at full
 resolution for rsm) and prints, per scene, the GPU time per frame of sii's `splat` pass with
-`splat=tiles` (per-tile VPL sets and a per-texel loop in compute, the default) and `splat=raster` (one
-additively blended quad per VPL, the paper's way), of rsm's `rsm gather` pass, their ratios, and the FLIP
-between the two splats' images (`rtgi compare`). Options: --suite FILE, --size WxH, --doc NAME,
+`splat=tiles-shared` and `splat=tiles-texel` (per-tile VPL sets and a per-texel loop in compute, each
+tile's VPLs read into workgroup memory or per texel) and `splat=raster` (one additively blended quad per
+VPL, the paper's way), of rsm's `rsm gather` pass, their ratios, and the FLIP between the tiled splats'
+images and the raster splat's (`rtgi compare`). Options: --suite FILE, --size WxH, --doc NAME,
 --allow-dirty.
 """
 import sys
@@ -42,27 +43,32 @@ def main():
         m.printed_by(SCRIPT, args, size, results, adapter, cpu) + " " + m.load_text(start, m.load_average()),
         "",
         "Per-pass time per frame (GPU timestamps where reliable, else wall times; mean of the suite's "
-        "measured frames). `splat` is sii's pass that adds every VPL's light to the indirect buffer: `tiles` "
-        "builds each VPL's atlas rectangle, a bit set of the VPLs meeting each 8×8 tile, then sums per texel "
-        "over its tile's set in VPL order; `raster` draws one additively blended quad per VPL. Both reach "
-        "the same texels with the same additions in the same order (unit test "
-        "`tiled_splatting_equals_raster_splatting`: bit-equal atlases on lavapipe); the FLIP column compares "
-        "the two techniques' final images. `rsm gather` is rsm's per-pixel gather of the same RSM at 256 "
-        "samples, full resolution. Scenes without analytic lights (cornell, furnace, spheres-env) give RSM "
-        "techniques no VPL light, but every pass still runs.",
+        "measured frames). `splat` is sii's pass that adds every VPL's light to the indirect buffer. The tiled "
+        "splats build each VPL's atlas rectangle and a bit set of the VPLs meeting each 8×8 tile, then sum per "
+        "texel over its tile's set in VPL order: `shared` reads each tile's VPLs once into workgroup memory "
+        "(`splat=tiles-shared`, what `splat=tiles` picks on GPUs), `texel` reads them per texel from the VPL "
+        "table (`splat=tiles-texel`, what it picks on CPU adapters). `raster` draws one additively blended "
+        "quad per VPL. All three reach the same texels with the same additions in the same order (unit test "
+        "`tiled_splatting_equals_raster_splatting`: equal atlases on lavapipe); the FLIP columns compare the "
+        "techniques' final images with raster's. `rsm gather` is rsm's per-pixel gather of the same RSM at "
+        "256 samples, full resolution. Scenes without analytic lights (cornell, furnace, spheres-env) give "
+        "RSM techniques no VPL light, but every pass still runs.",
         "",
-        "| scene | splat tiles ms | splat raster ms | rsm gather ms | tiles / gather | raster / gather "
-        "| tiles / raster | FLIP tiles vs raster |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
+        "| scene | splat shared ms | splat texel ms | splat raster ms | rsm gather ms | shared / gather "
+        "| texel / gather | raster / gather | FLIP shared vs raster | FLIP texel vs raster |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for scene in scenes:
-        tiles = cell(results, scene, "sii", vpls=256, splat="tiles")
+        shared = cell(results, scene, "sii", vpls=256, splat="tiles-shared")
+        texel = cell(results, scene, "sii", vpls=256, splat="tiles-texel")
         raster = cell(results, scene, "sii", vpls=256, splat="raster")
         gather = cell(results, scene, "rsm", downsample=1, samples=256)
-        t, r, g = m.pass_ms(tiles, "splat"), m.pass_ms(raster, "splat"), m.pass_ms(gather, "rsm gather")
-        flip = m.compare(rtgi, out / "images" / raster["image_file"], out / "images" / tiles["image_file"])["flip"]
-        lines.append(f"| {scene} | {t:.3f} | {r:.3f} | {g:.3f} | {t / g:.2f}× | {r / g:.2f}× | {t / r:.2f}× "
-                     f"| {flip:.4f} |")
+        s, t, r = (m.pass_ms(c, "splat") for c in (shared, texel, raster))
+        g = m.pass_ms(gather, "rsm gather")
+        flips = [m.compare(rtgi, out / "images" / raster["image_file"], out / "images" / c["image_file"])["flip"]
+                 for c in (shared, texel)]
+        lines.append(f"| {scene} | {s:.3f} | {t:.3f} | {r:.3f} | {g:.3f} | {s / g:.2f}× | {t / g:.2f}× "
+                     f"| {r / g:.2f}× | {flips[0]:.4f} | {flips[1]:.4f} |")
     path = m.ROOT / "docs/measurements" / f"{args.doc}.md"
     path.write_text("\n".join(lines) + "\n")
     print(path.read_text())

@@ -118,10 +118,12 @@ const SII_PARAMS: [ParamSpec; 14] = with_direct_params!(
     },
     ParamSpec {
         name: "splat",
-        kind: ParamKind::Choice(&["tiles", "raster"]),
+        kind: ParamKind::Choice(&["tiles", "tiles-shared", "tiles-texel", "raster"]),
         default: "tiles",
-        doc: "tiles: per-tile VPL sets and a per-texel loop in compute (no blending); raster: one additively \
-              blended quad per VPL (the paper's way); same texels, values and order",
+        doc: "tiles: per-tile VPL sets and a per-texel loop in compute (no blending), each tile's VPLs read \
+              once into workgroup memory on GPUs (tiles-shared) and per texel from the VPL table on CPU \
+              adapters (tiles-texel), the faster there; raster: one additively blended quad per VPL (the \
+              paper's way); same texels, values and order",
     },
 );
 

@@ -171,7 +171,7 @@ impl Splat {
 
         // Splatting.
         let split = SplitGBuffer::new(ctx, setup.frame, layout, &setup.gpu_scene.bind_group_layout)?;
-        let tiled = p.choice("splat") == "tiles";
+        let tiled = p.choice("splat").starts_with("tiles");
         // Blending rgba32float needs an optional feature; storage writes of it do not.
         let atlas_format = if tiled || ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
             wgpu::TextureFormat::Rgba32Float
@@ -195,7 +195,15 @@ impl Splat {
         let defines =
             layout.defines(Defines::new()).bool("SPLIT_GBUFFER", layout.is_interleaved()).f32("SCALE", scale);
         let splatting = if tiled {
-            Self::tiles(setup, &split, &vpl_buffer, &atlas_view, &rsm, count, (aw, ah), defines)?
+            // Workgroup memory pays on GPUs; lavapipe's barriers cost more than the texel loads they save
+            // (splat_tiles.wgsl).
+            let shared = match p.choice("splat") {
+                "tiles-shared" => true,
+                "tiles-texel" => false,
+                _ => ctx.adapter.get_info().device_type != wgpu::DeviceType::Cpu,
+            };
+            let per_texel = if shared { "splat_tiles_shared" } else { "splat_tiles" };
+            Self::tiles(setup, &split, &vpl_buffer, &atlas_view, &rsm, count, (aw, ah), defines, per_texel)?
         } else {
             Self::raster(setup, &split, &vpl_buffer, &rsm, atlas_format, &defines)?
         };
@@ -293,6 +301,7 @@ impl Splat {
         count: u32,
         (aw, ah): (u32, u32),
         defines: Defines,
+        per_texel_entry: &str,
     ) -> Result<Splatting, RenderError> {
         let ctx = setup.ctx;
         let (tiles_x, tiles_y, words) =
@@ -394,7 +403,7 @@ impl Splat {
         Ok(Splatting::Tiles {
             rects: pipeline(&set_up, "splat_rects", &rects_layout)?,
             bins: pipeline(&set_up, "splat_bins", &bins_layout)?,
-            tiles: pipeline(&per_texel, "splat_tiles", &tiles_layout)?,
+            tiles: pipeline(&per_texel, per_texel_entry, &tiles_layout)?,
             groups: [rects_group, bins_group, tiles_group],
             sets: bins,
             set_table: bin_table,

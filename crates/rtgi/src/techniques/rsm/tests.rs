@@ -446,22 +446,25 @@ fn sii_atlas(settings: &[(&str, &str)]) -> (Vec<f32>, wgpu::TextureFormat) {
     (texels, format)
 }
 
-/// The tiled compute splat reaches the texels the raster splat reaches, with the same sums: same VPLs,
-/// same order of addition. Whole image and interleaved 4x2, with VPLs enough to span several 32-VPL
-/// words of the tile sets.
+/// The tiled compute splat, with each tile's VPLs read per texel and from workgroup memory, reaches the
+/// texels the raster splat reaches, with the same sums: same VPLs, same order of addition. Whole image
+/// and interleaved 4x2, with VPLs enough to span three 32-VPL words of the tile sets (an odd count: the
+/// workgroup-memory pass reads them two at a time).
 #[test]
 fn tiled_splatting_equals_raster_splatting() {
-    for interleave in ["1x1", "4x2"] {
-        let common = [("interleave", interleave), ("vpls", "100"), ("splat_threshold", "0.1")];
+    for (interleave, tiled) in
+        [("1x1", "tiles-texel"), ("4x2", "tiles-texel"), ("1x1", "tiles-shared"), ("4x2", "tiles-shared")]
+    {
+        let common = [("interleave", interleave), ("vpls", "80"), ("splat_threshold", "0.1")];
         let (raster, format) = sii_atlas(&[common.as_slice(), &[("splat", "raster")]].concat());
-        let (tiles, _) = sii_atlas(&[common.as_slice(), &[("splat", "tiles")]].concat());
+        let (tiles, _) = sii_atlas(&[common.as_slice(), &[("splat", tiled)]].concat());
         assert_eq!(raster.len(), tiles.len());
         let mut worst = 0.0f32;
         let mut covered = 0;
         for (r, t) in raster.chunks_exact(4).zip(tiles.chunks_exact(4)) {
             assert_eq!(
                 r[3], t[3],
-                "{interleave}: a texel got {} VPLs from the raster splat and {} from tiles",
+                "{interleave} {tiled}: a texel got {} VPLs from the raster splat and {} from tiles",
                 r[3], t[3]
             );
             covered += usize::from(r[3] > 0.0);
@@ -469,12 +472,12 @@ fn tiled_splatting_equals_raster_splatting() {
                 worst = worst.max((r[c] - t[c]).abs() / r[c].abs().max(1e-3));
             }
         }
-        assert!(covered > raster.len() / 8, "{interleave}: only {covered} texels splatted");
+        assert!(covered > raster.len() / 8, "{interleave} {tiled}: only {covered} texels splatted");
         // Measured 0 on lavapipe (the same f32 additions in the same order); a driver may contract the
         // shading into FMAs differently in a fragment and a compute shader, and the raster atlas is
         // rgba16float where blending rgba32float is unsupported.
         let allowed = if format == wgpu::TextureFormat::Rgba32Float { 1e-5 } else { 2e-3 };
-        assert!(worst <= allowed, "{interleave}: tiles differ from raster by {worst} (relative)");
+        assert!(worst <= allowed, "{interleave} {tiled}: tiles differ from raster by {worst} (relative)");
     }
 }
 
