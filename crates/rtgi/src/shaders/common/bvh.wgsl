@@ -264,9 +264,12 @@ fn bvh_min3(v: vec3f) -> f32 {
     return min(v.x, min(v.y, v.z));
 }
 
-// Bytes 0..3 of w as the lanes of a vector.
+// Bytes 0..3 of w as the lanes of a vector. A byte b goes into the mantissa of 2^23 and 2^23 is taken
+// away again, both exact: the same floats as an integer conversion, without one (GPUs convert at a
+// quarter of their float rate or less, and a node's boxes need 24).
 fn bvh_bytes(w: u32) -> vec4f {
-    return vec4f((vec4u(w) >> vec4u(0u, 8u, 16u, 24u)) & vec4u(0xffu));
+    let b = (vec4u(w) >> vec4u(0u, 8u, 16u, 24u)) & vec4u(0xffu);
+    return bitcast<vec4f>(b | vec4u(0x4b000000u)) - vec4f(8388608.0);
 }
 
 // A node's grid cell size along one axis, 2^(byte − 127).
