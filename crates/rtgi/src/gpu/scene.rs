@@ -1027,10 +1027,7 @@ impl GpuScene {
     /// `BVH_TABLES_IN_BUFFERS`, see `common/bvh.wgsl`): every pipeline that traces rays is built with
     /// them.
     pub fn bvh_defines(&self, defines: crate::shaders::Defines) -> crate::shaders::Defines {
-        defines
-            .bool("BVH_INSTANCES", self.has_instances())
-            .bool("BVH_ALPHA_TESTS", self.bvh.alpha_tested)
-            .bool("BVH_TABLES_IN_BUFFERS", self.bvh.tables == BvhTables::Buffers)
+        self.bvh.defines(defines)
     }
 
     /// Where the BVH keeps its node and triangle tables (`Textures` or `Buffers`).

@@ -184,7 +184,7 @@ fn append_resolved(
     if !blocks.is_empty() {
         return Err(error(format!("{here}: #if without #endif")));
     }
-    let _ = writeln!(out, "// ---- {} ----", stack.last().map(String::as_str).unwrap_or(shader));
+    let _ = writeln!(out, "// ---- {here} ----");
     out.push_str(&body);
     Ok(())
 }

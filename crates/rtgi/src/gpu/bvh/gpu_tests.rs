@@ -123,14 +123,9 @@ impl Harness {
     }
 
     fn with_source(ctx: &GpuContext, bvh: &Bvh, mode: u32, source: &str) -> Result<Harness, GpuError> {
-        // The traversal a scene with this BVH gets: single-level unless it has instances, without the
-        // alpha test unless a triangle is alpha-tested.
+        // The traversal a scene with this BVH gets (GpuBvh::defines).
         let gpu_bvh = GpuBvh::new(ctx, bvh)?;
-        let defines = Defines::new()
-            .u32("MODE", mode)
-            .bool("BVH_INSTANCES", !bvh.instances.is_empty())
-            .bool("BVH_ALPHA_TESTS", bvh.has_alpha_tested())
-            .bool("BVH_TABLES_IN_BUFFERS", gpu_bvh.tables == BvhTables::Buffers);
+        let defines = gpu_bvh.defines(Defines::new().u32("MODE", mode));
         let module = shaders::create_module(ctx, "bvh harness", source, &defines)
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -609,8 +604,7 @@ fn bvh_gpu_matches_cpu_with_tables_in_buffers() {
     let scene = geo::instanced_scene(41);
     let mut bvh = super::InstancedBvh::build(&scene.tris, &scene.moving).expect("build");
     bvh.place(&scene.transforms);
-    let harness = Harness::new(&ctx, &bvh.bvh, 0).expect("harness");
-    assert_eq!(harness.bvh.tables, BvhTables::Buffers);
+    assert_eq!(GpuBvh::new(&ctx, &bvh.bvh).expect("upload").tables, BvhTables::Buffers);
     let (r, _) = check_gpu_traversal_of(
         &ctx,
         "GPU instances, tables in buffers",

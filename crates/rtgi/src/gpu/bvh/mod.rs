@@ -522,8 +522,11 @@ pub struct GpuBvh {
     pub instances: wgpu::Buffer,
     pub node_count: u32,
     pub triangle_count: u32,
+    /// Whether it has instances (two levels): without, shaders compile the single-level traversal
+    /// (`BVH_INSTANCES`, see `common/bvh.wgsl`).
+    pub instanced: bool,
     /// Whether any triangle is alpha-tested: without one, shaders compile the traversal without the
-    /// alpha test (`BVH_ALPHA_TESTS`, see `common/bvh.wgsl`).
+    /// alpha test (`BVH_ALPHA_TESTS`).
     pub alpha_tested: bool,
 }
 
@@ -564,8 +567,18 @@ impl GpuBvh {
             instances: instance_buffer,
             node_count: bvh.nodes.len() as u32,
             triangle_count: bvh.triangles.len() as u32,
+            instanced: !bvh.instances.is_empty(),
             alpha_tested: bvh.has_alpha_tested(),
         })
+    }
+
+    /// `defines` plus the traversal this BVH needs (`BVH_INSTANCES`, `BVH_ALPHA_TESTS` and
+    /// `BVH_TABLES_IN_BUFFERS`, see `common/bvh.wgsl`): every pipeline that traces it is built with them.
+    pub fn defines(&self, defines: crate::shaders::Defines) -> crate::shaders::Defines {
+        defines
+            .bool("BVH_INSTANCES", self.instanced)
+            .bool("BVH_ALPHA_TESTS", self.alpha_tested)
+            .bool("BVH_TABLES_IN_BUFFERS", self.tables == BvhTables::Buffers)
     }
 
     /// Writes the top level and instances of `bvh` (placed anew) over those uploaded from it.
