@@ -23,7 +23,7 @@ pub mod spec;
 
 pub use spec::SceneSpec;
 
-use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+use glam::{IVec3, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 
 pub use animation::{Pose, SceneAnimation};
 
@@ -386,23 +386,37 @@ impl Aabb {
 
     /// `count` nested cubes of `cells`³ cells, finest first (LPV's cascades, VXGI's clipmap levels): the
     /// coarsest is the `enclosing_cube`, each finer one halves the cell and is centred on `focus`, its
-    /// corner snapped to whole multiples of `snap_cells` of its cells, so that a focus moving by less
-    /// than that leaves it where it was and the coarser cells its own cells make up (mips) stay aligned
-    /// to the cube. Each: minimum corner and cell edge.
-    pub fn nested_cubes(&self, focus: Vec3, cells: u32, count: usize, snap_cells: u32) -> Vec<(Vec3, f32)> {
-        let (scene_corner, coarsest) = self.enclosing_cube(cells);
+    /// corner snapped to whole multiples of `snap_cells` of its cells from the coarsest cube's corner, so
+    /// that a focus moving by less than that leaves it where it was, and every cube's cells (and the
+    /// coarser cells `snap_cells` of them make up, mips) lie inside cells of the next coarser cube.
+    pub fn nested_cubes(&self, focus: Vec3, cells: u32, count: usize, snap_cells: u32) -> Vec<NestedCube> {
+        let (origin, coarsest) = self.enclosing_cube(cells);
         (0..count)
             .map(|k| {
                 let cell = coarsest / (1u32 << (count - 1 - k)) as f32;
-                if k + 1 == count {
-                    return (scene_corner, cell);
-                }
-                let snap = cell * snap_cells as f32;
-                let half = (cells / 2 / snap_cells) as f32;
-                (((focus / snap).floor() - Vec3::splat(half)) * snap, cell)
+                let offset = if k + 1 == count {
+                    IVec3::ZERO
+                } else {
+                    let snap = cell * snap_cells as f32;
+                    let half = (cells / 2 / snap_cells) as i32;
+                    (((focus - origin) / snap).floor().as_ivec3() - IVec3::splat(half)) * snap_cells as i32
+                };
+                NestedCube { corner: origin + offset.as_vec3() * cell, cell, offset }
             })
             .collect()
     }
+}
+
+/// One cube of [`Aabb::nested_cubes`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NestedCube {
+    /// Minimum corner.
+    pub corner: Vec3,
+    /// Cell edge.
+    pub cell: f32,
+    /// The corner in whole cells of this cube from the coarsest cube's corner (zero for the coarsest):
+    /// cell c of the cube is cell `offset + c` of a lattice that stays where it is while the cube moves.
+    pub offset: IVec3,
 }
 
 impl Scene {

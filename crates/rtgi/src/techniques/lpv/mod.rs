@@ -158,8 +158,8 @@ pub fn face_solid_angles() -> (f32, f32) {
 /// its corner snapped to whole cells.
 pub fn place_cascades(bounds: crate::scene::Aabb, camera: Vec3, grid: u32, count: usize) -> LpvParams {
     let mut p = LpvParams::zeroed();
-    for (k, (corner, cell)) in bounds.nested_cubes(camera, grid, count, 1).into_iter().enumerate() {
-        p.cascades[k] = [corner.x, corner.y, corner.z, cell];
+    for (k, cube) in bounds.nested_cubes(camera, grid, count, 1).into_iter().enumerate() {
+        p.cascades[k] = [cube.corner.x, cube.corner.y, cube.corner.z, cube.cell];
     }
     p.cascade_count = count as u32;
     p

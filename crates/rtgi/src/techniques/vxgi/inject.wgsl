@@ -1,22 +1,21 @@
 // Light injection (prepended: volume.wgsl): every voxel holding surfaces takes the direct light its
 // surfaces reflect, from the shared direct-light routine the camera's pixels use (analytic lights with
 // traced shadow rays, INJECT_SAMPLES samples of the emissive triangles and of the environment, the
-// same for every run: the random numbers are seeded by the voxel), as a Lambertian surface of the
+// same for every run: the random numbers are seeded by the voxel's lattice index and level, so a voxel
+// gets the same light wherever its level lies), as a Lambertian surface of the
 // voxel's mean albedo facing its mean normal. Level 0 of the radiance volume gets L·α with α = 1.
 // The camera's own view of emitters and the environment is the direct pass's: the voxels carry only
 // their reflected light.
 
 #import common/direct_light.wgsl
 
-@group(2) @binding(3) var radiance_out: texture_storage_3d<rgba16float, write>;
-
 // The surface voxel c of level k stands for, lit on its normal's side; shadow rays leave a voxel out
 // along the normal so that they clear the voxel's own surfaces wherever in it they lie.
-fn voxel_surface(k: u32, c: vec3u, v: Voxel) -> GSurface {
+fn voxel_surface(k: u32, c: vec3i, v: Voxel) -> GSurface {
     let n = voxel_direction(v);
     var s: GSurface;
     s.valid = true;
-    s.position = world_position(k, vec3f(c) + 0.5);
+    s.position = voxel_centre(k, c);
     s.normal = n;
     s.geometric_normal = n;
     s.view = n;
@@ -26,35 +25,48 @@ fn voxel_surface(k: u32, c: vec3u, v: Voxel) -> GSurface {
     return s;
 }
 
-// One dispatch per level (`dispatch_slot.clip`).
+// Voxel `id` of the dispatch's box (xyz, in the level) and whether the box holds it (w = 1) or not (0).
+fn box_voxel(id: vec3u) -> vec4i {
+    let b = dispatch_box();
+    let c = b.lo.xyz + vec3i(id);
+    return vec4i(c, select(0, 1, all(c < b.hi.xyz)));
+}
+
+// One dispatch per level and region (`dispatch_slot`).
 @compute @workgroup_size(4, 4, 4)
 fn inject(@builtin(global_invocation_id) id: vec3u) {
-    if any(id >= vec3u(GRID)) {
+    let voxel = box_voxel(id);
+    if voxel.w == 0 {
         return;
     }
     let k = dispatch_slot.clip;
-    let t = clip_texel(k, id);
+    let c = voxel.xyz;
+    let t = clip_texel(k, vec3u(c));
     let v = load_voxel(t);
     if !v.occupied {
         textureStore(radiance_out, t, vec4f(0.0));
         return;
     }
-    let s = voxel_surface(k, id, v);
+    let s = voxel_surface(k, c, v);
     let origin = s.position + s.normal * voxel_size(k);
-    var rng = rng_new(t.xy, t.z, frame.seed);
+    // The lattice index (16 bits of x and y, z and the level in the second word) keys the numbers.
+    let w = bitcast<vec3u>(lattice_voxel(k, c));
+    var rng = rng_new(w.xy & vec2u(0xffffu), w.z ^ (k << 28u), frame.seed);
     let radiance = direct_light(s, origin, &rng, INJECT_SAMPLES, INJECT_SAMPLES, true);
     textureStore(radiance_out, t, vec4f(radiance, 1.0));
 }
 
 // The second bounce: each voxel adds what its diffuse cones gather from the first bounce's volume
-// (bound as radiance_base / radiance_directional) times albedo / π. One dispatch per level.
+// (bound as radiance_base / radiance_directional) times albedo / π. One dispatch per level and region.
 @compute @workgroup_size(4, 4, 4)
 fn bounce(@builtin(global_invocation_id) id: vec3u) {
-    if any(id >= vec3u(GRID)) {
+    let voxel = box_voxel(id);
+    if voxel.w == 0 {
         return;
     }
     let k = dispatch_slot.clip;
-    let t = clip_texel(k, id);
+    let c = voxel.xyz;
+    let t = clip_texel(k, vec3u(c));
     let v = load_voxel(t);
     let first = textureLoad(radiance_base, t, 0);
     if !v.occupied {
@@ -62,6 +74,6 @@ fn bounce(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     let n = voxel_direction(v);
-    let e = cone_irradiance(world_position(k, vec3f(id) + 0.5) + n * voxel_size(k), n);
+    let e = cone_irradiance(voxel_centre(k, c) + n * voxel_size(k), n);
     textureStore(radiance_out, t, vec4f(first.rgb + v.albedo * INV_PI * e, first.a));
 }

@@ -25,8 +25,14 @@
 //! Clipmaps (`clipmap_levels` > 1): nested volumes of the same resolution, the coarsest over the scene,
 //! each finer one half the voxel and centred on the camera, snapped to two of its voxels (its mip 1 then
 //! lines up with the next level's voxels). A cone sample reads the finest level that holds it and is
-//! as fine as its diameter needs. A level is voxelised and lit again when it moves; a production
-//! engine would scroll it (toroidal addressing) and update only the new slabs.
+//! as fine as its diameter needs. A level that moves by less than its width scrolls (`scroll`): the
+//! voxels, radiance and second bounce it keeps shift with it ("vxgi scroll", through a scratch copy of
+//! one level), and only the slabs it enters are voxelised, lit and bounced; its mips are filtered
+//! again. Voxelisation and injection compute everything from a voxel's index on a lattice anchored at
+//! the coarsest level's corner (never from the level's own corner), so a scrolled level holds, bit for
+//! bit, the voxels and first-bounce radiance that a level voxelised and lit where it now stands would.
+//! The second bounce of the voxels kept is the one gathered where the levels stood before: the same
+//! scene seen through clipmap levels placed a few voxels otherwise.
 
 #[cfg(test)]
 mod tests;
@@ -57,6 +63,11 @@ const FOOTPRINT_CAP: f32 = 0.5;
 /// The narrowest specular cone (half-angle tangent): a mirror's cone still widens past one voxel
 /// within a few voxels, so it keeps to the filtered levels rather than aliasing through level 0.
 const MIN_SPECULAR_TAN: f32 = 0.02;
+/// Boxes of voxels per clipmap level that a frame's volume passes work on: up to three slabs a scroll
+/// enters, and the whole level.
+const REGIONS: usize = 4;
+/// The region of a whole level.
+const WHOLE_LEVEL: usize = 3;
 /// Storage format of the radiance volumes (filterable, writable as storage everywhere).
 const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Voxel words (albedo + count, normal), read and written by voxelisation.
@@ -67,7 +78,7 @@ pub const MAX_CLIPMAPS: usize = 4;
 /// at its mip 1 reads a voxel of 2 around the sample.
 const CLIP_MARGIN: f32 = 2.0;
 
-const VXGI_PARAMS: [ParamSpec; 19] = with_direct_params!(
+const VXGI_PARAMS: [ParamSpec; 20] = with_direct_params!(
     ParamSpec {
         name: "resolution",
         kind: ParamKind::Int { min: 16, max: 512 },
@@ -134,6 +145,13 @@ const VXGI_PARAMS: [ParamSpec; 19] = with_direct_params!(
               are exact)",
     },
     ParamSpec {
+        name: "scroll",
+        kind: ParamKind::Bool,
+        default: "true",
+        doc: "clipmap levels that move by less than their width keep the voxels they still hold (shifted) \
+              and voxelise and light only the slabs they enter (false: a level that moves is rebuilt)",
+    },
+    ParamSpec {
         name: "update",
         kind: ParamKind::Choice(&["changes", "every-frame"]),
         default: "changes",
@@ -171,6 +189,23 @@ fn validate(p: &ParamValues) -> Result<(), String> {
 pub struct VxgiVolume {
     /// Per clipmap level, finest first: minimum corner (xyz) and voxel edge (w).
     pub clips: [[f32; 4]; MAX_CLIPMAPS],
+    /// Per level, its minimum corner in its own voxels from `origin` (xyz): voxel c of level k is voxel
+    /// corners[k] + c of a lattice that does not move with the level.
+    pub corners: [[i32; 4]; MAX_CLIPMAPS],
+    /// Per level, this frame's scroll in its voxels (xyz): voxel c now holds what voxel c + shift held.
+    pub shifts: [[i32; 4]; MAX_CLIPMAPS],
+    /// Per level, REGIONS boxes of voxels [lo, hi) (xyz of each) for this frame's volume passes:
+    /// the slabs a scroll enters, then the whole level.
+    pub boxes: [[[i32; 4]; 2]; REGIONS * MAX_CLIPMAPS],
+    /// The lattice's origin, the coarsest level's corner (xyz).
+    pub origin: [f32; 4],
+}
+
+impl VxgiVolume {
+    /// Whether level `k` lies where it lies in `other`, on the same lattice.
+    fn same_level(&self, other: &VxgiVolume, k: usize) -> bool {
+        self.clips[k] == other.clips[k] && self.corners[k] == other.corners[k] && self.origin == other.origin
+    }
 }
 
 /// Mirrors `DispatchSlot` in volume.wgsl.
@@ -179,17 +214,65 @@ pub struct VxgiVolume {
 struct DispatchSlot {
     axis: u32,
     clip: u32,
-    _pad: [u32; 2],
+    region: u32,
+    _pad: u32,
+}
+
+/// The slot of a volume pass's dispatch over `region` of level `clip` (voxelisation: along `axis`).
+fn slot_index(clip: usize, region: usize, axis: usize) -> usize {
+    (clip * REGIONS + region) * 3 + axis
 }
 
 /// The `clips` nested cubes of `grid`³ voxels: the coarsest centred on `bounds` with a voxel of margin on
-/// every side, each finer one half the voxel, centred on `camera` and snapped to two of its voxels.
+/// every side, each finer one half the voxel, centred on `camera` and snapped to two of its voxels. Every
+/// level's region WHOLE_LEVEL is the whole level; the scroll regions are empty.
 pub fn place_volume(bounds: crate::scene::Aabb, camera: glam::Vec3, grid: u32, clips: usize) -> VxgiVolume {
     let mut v = VxgiVolume::zeroed();
-    for (k, (corner, voxel)) in bounds.nested_cubes(camera, grid, clips, 2).into_iter().enumerate() {
-        v.clips[k] = [corner.x, corner.y, corner.z, voxel];
+    let cubes = bounds.nested_cubes(camera, grid, clips, 2);
+    for (k, cube) in cubes.iter().enumerate() {
+        v.clips[k] = [cube.corner.x, cube.corner.y, cube.corner.z, cube.cell];
+        v.corners[k] = cube.offset.extend(0).to_array();
+        v.boxes[k * REGIONS + WHOLE_LEVEL] = [[0; 4], [grid as i32, grid as i32, grid as i32, 0]];
     }
+    let origin = cubes.last().map_or(glam::Vec3::ZERO, |c| c.corner);
+    v.origin = [origin.x, origin.y, origin.z, 0.0];
     v
+}
+
+/// The voxels a level of `grid`³ enters when it scrolls by `shift` (new voxel c is old voxel c + shift;
+/// every component below `grid` in size): up to three disjoint slabs [lo, hi), across x, then y within
+/// the x it kept, then z within the x and y it kept.
+pub fn entered_slabs(grid: u32, shift: [i32; 3]) -> Vec<[[i32; 3]; 2]> {
+    let n = grid as i32;
+    let mut kept = [[0, n]; 3];
+    let mut slabs = Vec::new();
+    for axis in 0..3 {
+        let d = shift[axis];
+        if d == 0 {
+            continue;
+        }
+        // New voxels c with c + d outside [0, n).
+        let (entered, rest) = if d > 0 { ([n - d, n], [0, n - d]) } else { ([0, -d], [-d, n]) };
+        let mut lo = [kept[0][0], kept[1][0], kept[2][0]];
+        let mut hi = [kept[0][1], kept[1][1], kept[2][1]];
+        lo[axis] = entered[0];
+        hi[axis] = entered[1];
+        slabs.push([lo, hi]);
+        kept[axis] = rest;
+    }
+    slabs
+}
+
+/// What a frame does to one clipmap level's voxels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum LevelWork {
+    Keep,
+    /// Voxelised and lit anew, all of it.
+    Rebuild,
+    /// Scrolled (by `volume.shifts`); the slabs it enters are its `volume.boxes` of regions 0..slabs.
+    Scroll {
+        slabs: usize,
+    },
 }
 
 /// Half-angle of the diffuse cones in radians: `aperture_deg`, or (0) each cone's equal share of the
@@ -248,6 +331,7 @@ impl ShaderSettings {
             .u32("GRID", self.grid)
             .u32("CLIPS", self.clips)
             .u32("MAX_CLIPMAPS", MAX_CLIPMAPS as u32)
+            .u32("REGIONS", REGIONS as u32)
             .f32("CLIP_MARGIN", CLIP_MARGIN)
             .u32("LEVELS", self.levels())
             .u32("DIFFUSE_CONES", self.diffuse_cones)
@@ -273,6 +357,10 @@ pub fn voxelize_source() -> String {
 
 pub fn inject_source() -> String {
     format!("#import common/frame.wgsl\n{VOLUME_WGSL}\n{CONE_WGSL}\n{}", include_str!("inject.wgsl"))
+}
+
+pub fn scroll_source() -> String {
+    format!("{VOLUME_WGSL}\n{}", include_str!("scroll.wgsl"))
 }
 
 pub fn mips_source() -> String {
@@ -318,8 +406,9 @@ pub struct Vxgi {
     /// (anisotropic). The isotropic mips live in the level-0 textures' own chains.
     lit: [wgpu::Texture; 2],
     directional: Option<wgpu::Texture>,
-    /// Per dispatch of the volume passes: (clip level, axis), slot 3 × clip + axis.
+    /// Per dispatch of the volume passes: (clip level, region, axis), at slot_index.
     slots: DispatchSlots,
+    scroll: Option<Scroller>,
     /// The layout of bind group 2, for passes outside the technique (the tests' cone probes).
     #[cfg_attr(not(test), allow(dead_code))]
     layout: wgpu::BindGroupLayout,
@@ -338,9 +427,23 @@ pub struct Vxgi {
     mip_from_base: wgpu::ComputePipeline,
     mip_from_directional: wgpu::ComputePipeline,
     shade: wgpu::ComputePipeline,
-    /// Per clipmap level: its voxels must be rebuilt (it moved, geometry changed).
+    /// Per clipmap level: its voxels must be rebuilt (geometry changed).
     voxels_dirty: [bool; MAX_CLIPMAPS],
     light_dirty: bool,
+    /// Levels scrolled and levels rebuilt, since creation.
+    scrolls: u64,
+    rebuilds: u64,
+}
+
+/// What scrolling a clipmap level needs: a scratch copy of one level's voxel words and radiance, and the
+/// pass that shifts them back into the level.
+struct Scroller {
+    albedo: wgpu::Texture,
+    normal: wgpu::Texture,
+    radiance: wgpu::Texture,
+    group: wgpu::BindGroup,
+    voxels: wgpu::ComputePipeline,
+    radiance_only: wgpu::ComputePipeline,
 }
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -404,7 +507,8 @@ impl Vxgi {
             None
         };
         let slot_values: Vec<DispatchSlot> = (0..clips)
-            .flat_map(|clip| (0..3).map(move |axis| DispatchSlot { axis, clip, _pad: [0; 2] }))
+            .flat_map(|clip| (0..REGIONS as u32).map(move |region| (clip, region)))
+            .flat_map(|(clip, region)| (0..3).map(move |axis| DispatchSlot { axis, clip, region, _pad: 0 }))
             .collect();
         let slots = DispatchSlots::new(ctx, "vxgi dispatch slots", &slot_values);
 
@@ -498,6 +602,47 @@ impl Vxgi {
             compute::pipeline(ctx, "vxgi mips", &mips_source(), defines.clone(), entry, &[&mip_layout])
         };
         let (voxelize_wgsl, inject_wgsl) = (voxelize_source(), inject_source());
+        let scroll = if clips > 1 && p.bool("scroll") {
+            let scratch =
+                |label, format| TextureBuilder::d3(label, n, n, n, format).sampled().copy().build(ctx);
+            let (albedo, normal) =
+                (scratch("vxgi scroll albedo", VOXEL_FORMAT)?, scratch("vxgi scroll normal", VOXEL_FORMAT)?);
+            let radiance = scratch("vxgi scroll radiance", RADIANCE_FORMAT)?;
+            let uint = wgpu::TextureSampleType::Uint;
+            let scratch_layout = compute::layout(
+                ctx,
+                "vxgi scroll",
+                &[
+                    compute::texture_3d_entry(0, uint),
+                    compute::texture_3d_entry(1, uint),
+                    compute::texture_3d_entry(2, wgpu::TextureSampleType::Float { filterable: false }),
+                ],
+            );
+            let group = compute::bind_group(
+                ctx,
+                "vxgi scroll",
+                &scratch_layout,
+                &[
+                    wgpu::BindingResource::TextureView(&full(&albedo)),
+                    wgpu::BindingResource::TextureView(&full(&normal)),
+                    wgpu::BindingResource::TextureView(&full(&radiance)),
+                ],
+            );
+            let layouts = [layouts[0], layouts[1], layouts[2], &scratch_layout];
+            let pipeline = |entry: &str| {
+                compute::pipeline(ctx, "vxgi scroll", &scroll_source(), defines.clone(), entry, &layouts)
+            };
+            Some(Scroller {
+                voxels: pipeline("scroll_voxels")?,
+                radiance_only: pipeline("scroll_radiance")?,
+                albedo,
+                normal,
+                radiance,
+                group,
+            })
+        } else {
+            None
+        };
         Ok(Vxgi {
             bounces,
             every_frame: p.choice("update") == "every-frame",
@@ -518,6 +663,7 @@ impl Vxgi {
             lit,
             directional,
             slots,
+            scroll,
             layout,
             inject_group,
             bounce_group,
@@ -526,64 +672,119 @@ impl Vxgi {
             mip_generator: MipGenerator::new(),
             voxels_dirty: [true; MAX_CLIPMAPS],
             light_dirty: true,
+            scrolls: 0,
+            rebuilds: 0,
         })
     }
 
-    fn volume_workgroups(&self) -> [u32; 3] {
-        [self.settings.grid.div_ceil(4); 3]
+    /// Workgroups (4³ voxels each) over a region's box.
+    fn box_workgroups(&self, clip: usize, region: usize) -> [u32; 3] {
+        let [lo, hi] = self.volume.boxes[clip * REGIONS + region];
+        std::array::from_fn(|a| ((hi[a] - lo[a]).max(0) as u32).div_ceil(4))
     }
 
-    /// Records `pipeline` over the scene, the frame and `group` (dispatch slot `slot`: 3 × clip + axis).
+    /// Records `pipeline` over the scene, the frame, `group` and (the scroll's scratch) `extra`
+    /// (dispatch slot `slot`).
     fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         fc: &FrameContext,
         (name, pipeline): (&str, &wgpu::ComputePipeline),
-        group: &wgpu::BindGroup,
+        (group, extra): (&wgpu::BindGroup, Option<&wgpu::BindGroup>),
         slot: usize,
         workgroups: [u32; 3],
     ) {
         let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
         let mut pass = crate::gpu::dispatch::compute_pass(encoder, name, pipeline, &[scene, frame]);
         pass.set_bind_group(2, group, &[self.slots.offsets().nth(slot).unwrap_or(0)]);
+        if let Some(extra) = extra {
+            pass.set_bind_group(3, extra, &[]);
+        }
         pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
     }
 
-    /// Voxelises the scene into the voxel words of the clipmap levels in `levels` (pass "vxgi
-    /// voxelization").
-    fn voxelize(
+    /// Shifts the voxels and radiance of each scrolled level in `levels` by its `volume.shifts`, clearing
+    /// what it enters (pass "vxgi scroll").
+    fn scroll(
         &self,
         fc: &FrameContext,
         profiler: &mut Profiler,
         levels: &[usize],
     ) -> Result<(), RenderError> {
+        let Some(scroll) = &self.scroll else { return Ok(()) };
         let n = self.settings.grid;
-        profiler.pass(fc.ctx, "vxgi voxelization", |e| {
+        let copy = |e: &mut wgpu::CommandEncoder, from: &wgpu::Texture, to: &wgpu::Texture, k: usize| {
+            e.copy_texture_to_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: from,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d { x: 0, y: 0, z: k as u32 * n },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                to.as_image_copy(),
+                wgpu::Extent3d { width: n, height: n, depth_or_array_layers: n },
+            );
+        };
+        let workgroups = [n.div_ceil(4); 3];
+        profiler.pass(fc.ctx, "vxgi scroll", |e| {
             for &k in levels {
-                let clear = ("vxgi clear", &self.clear);
-                self.record(e, fc, clear, &self.inject_group, 3 * k, self.volume_workgroups());
-                for axis in 0..3 {
-                    let columns = [n.div_ceil(8), n.div_ceil(8), 1];
-                    let pass = ("vxgi voxelization", &self.voxelize);
-                    self.record(e, fc, pass, &self.inject_group, 3 * k + axis, columns);
+                copy(e, &self.voxel_albedo, &scroll.albedo, k);
+                copy(e, &self.voxel_normal, &scroll.normal, k);
+                copy(e, &self.lit[0], &scroll.radiance, k);
+                let slot = slot_index(k, WHOLE_LEVEL, 0);
+                let pass = ("vxgi scroll", &scroll.voxels);
+                self.record(e, fc, pass, (&self.inject_group, Some(&scroll.group)), slot, workgroups);
+                if self.bounces > 1 {
+                    copy(e, &self.lit[1], &scroll.radiance, k);
+                    let pass = ("vxgi scroll", &scroll.radiance_only);
+                    self.record(e, fc, pass, (&self.bounce_group, Some(&scroll.group)), slot, workgroups);
                 }
             }
         })?;
         Ok(())
     }
 
-    /// Records `pipeline` over every voxel of the clipmap levels in `levels` (pass `name`).
-    fn over_levels(
+    /// Voxelises the scene into the voxel words of each (level, region) in `regions`; a whole level is
+    /// cleared first (pass "vxgi voxelization").
+    fn voxelize(
+        &self,
+        fc: &FrameContext,
+        profiler: &mut Profiler,
+        regions: &[(usize, usize)],
+    ) -> Result<(), RenderError> {
+        profiler.pass(fc.ctx, "vxgi voxelization", |e| {
+            for &(k, r) in regions {
+                if r == WHOLE_LEVEL {
+                    let clear = ("vxgi clear", &self.clear);
+                    let workgroups = self.box_workgroups(k, r);
+                    self.record(e, fc, clear, (&self.inject_group, None), slot_index(k, r, 0), workgroups);
+                }
+                let [lo, hi] = self.volume.boxes[k * REGIONS + r];
+                for axis in 0..3 {
+                    // One thread per column along the axis, over the box's other two axes.
+                    let across = |a: usize| ((hi[a] - lo[a]).max(0) as u32).div_ceil(8);
+                    let columns = [across((axis + 1) % 3), across((axis + 2) % 3), 1];
+                    let pass = ("vxgi voxelization", &self.voxelize);
+                    self.record(e, fc, pass, (&self.inject_group, None), slot_index(k, r, axis), columns);
+                }
+            }
+        })?;
+        Ok(())
+    }
+
+    /// Records `pipeline` over the voxels of each (level, region) in `regions` (pass `name`).
+    fn over_regions(
         &self,
         fc: &FrameContext,
         profiler: &mut Profiler,
         (name, pipeline): (&str, &wgpu::ComputePipeline),
         group: &wgpu::BindGroup,
-        levels: &[usize],
+        regions: &[(usize, usize)],
     ) -> Result<(), RenderError> {
         profiler.pass(fc.ctx, name, |e| {
-            for &k in levels {
-                self.record(e, fc, (name, pipeline), group, 3 * k, self.volume_workgroups());
+            for &(k, r) in regions {
+                let workgroups = self.box_workgroups(k, r);
+                self.record(e, fc, (name, pipeline), (group, None), slot_index(k, r, 0), workgroups);
             }
         })?;
         Ok(())
@@ -620,37 +821,86 @@ impl Vxgi {
         failure.map_or(Ok(()), |e| Err(e.into()))
     }
 
+    /// What this frame does to each level, with `volume` (where the levels now lie) given the scroll
+    /// boxes and shifts of the levels that scroll.
+    fn plan(&self, volume: &mut VxgiVolume) -> [LevelWork; MAX_CLIPMAPS] {
+        let n = self.settings.grid as i32;
+        let mut work = [LevelWork::Keep; MAX_CLIPMAPS];
+        for (k, work) in work.iter_mut().enumerate().take(self.settings.clips as usize) {
+            if self.every_frame || self.voxels_dirty[k] {
+                *work = LevelWork::Rebuild;
+                continue;
+            }
+            if volume.same_level(&self.volume, k) {
+                continue;
+            }
+            let shift: [i32; 3] = std::array::from_fn(|a| volume.corners[k][a] - self.volume.corners[k][a]);
+            let lattice_kept =
+                volume.origin == self.volume.origin && volume.clips[k][3] == self.volume.clips[k][3];
+            if self.scroll.is_none() || !lattice_kept || shift.iter().any(|d| d.abs() >= n) {
+                *work = LevelWork::Rebuild;
+                continue;
+            }
+            let slabs = entered_slabs(self.settings.grid, shift);
+            for (r, [lo, hi]) in slabs.iter().enumerate() {
+                volume.boxes[k * REGIONS + r] = [[lo[0], lo[1], lo[2], 0], [hi[0], hi[1], hi[2], 0]];
+            }
+            volume.shifts[k] = [shift[0], shift[1], shift[2], 0];
+            *work = LevelWork::Scroll { slabs: slabs.len() };
+        }
+        work
+    }
+
     /// Brings the voxels and the radiance volumes up to date with the scene and the camera (clipmap
     /// levels that moved).
     fn update(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         let clips = self.settings.clips as usize;
-        let volume = place_volume(fc.gpu_scene.bounds(), fc.view.camera.position, self.settings.grid, clips);
+        let mut volume =
+            place_volume(fc.gpu_scene.bounds(), fc.view.camera.position, self.settings.grid, clips);
+        let work = self.plan(&mut volume);
         if volume != self.volume {
-            for k in 0..clips {
-                self.voxels_dirty[k] |= volume.clips[k] != self.volume.clips[k];
-            }
             self.volume = volume;
             fc.ctx.queue.write_buffer(&self.volume_buffer, 0, bytemuck::bytes_of(&volume));
         }
-        if self.every_frame {
-            self.voxels_dirty = [true; MAX_CLIPMAPS];
+        let levels = 0..clips;
+        let scrolled: Vec<usize> =
+            levels.clone().filter(|&k| matches!(work[k], LevelWork::Scroll { .. })).collect();
+        let rebuilt = levels.clone().filter(|&k| work[k] == LevelWork::Rebuild);
+        // The regions whose voxels are new this frame: whole levels rebuilt, slabs scrolled into.
+        let fresh: Vec<(usize, usize)> = levels
+            .clone()
+            .flat_map(|k| {
+                match work[k] {
+                    LevelWork::Keep => 0..0,
+                    LevelWork::Rebuild => WHOLE_LEVEL..WHOLE_LEVEL + 1,
+                    LevelWork::Scroll { slabs } => 0..slabs,
+                }
+                .map(move |r| (k, r))
+            })
+            .collect();
+        self.scrolls += scrolled.len() as u64;
+        self.rebuilds += rebuilt.clone().count() as u64;
+        if !scrolled.is_empty() {
+            self.scroll(fc, profiler, &scrolled)?;
         }
-        let dirty: Vec<usize> = (0..clips).filter(|&k| self.voxels_dirty[k]).collect();
-        if !dirty.is_empty() {
-            self.voxelize(fc, profiler, &dirty)?;
+        if !fresh.is_empty() {
+            self.voxelize(fc, profiler, &fresh)?;
         }
-        // New light everywhere when lights change, else in the levels voxelised again; the second
-        // bounce reads every level, so it follows any change.
-        let all: Vec<usize> = (0..clips).collect();
-        let lit = if self.light_dirty { &all } else { &dirty };
+        // New light everywhere when lights change, else in the voxels that are new; the second bounce
+        // reads every level, so it follows any rebuild or light change, but a scroll only brings the
+        // slabs it enters.
+        let all: Vec<(usize, usize)> = levels.map(|k| (k, WHOLE_LEVEL)).collect();
+        let lit = if self.light_dirty { &all } else { &fresh };
         if !lit.is_empty() {
-            self.over_levels(fc, profiler, ("vxgi injection", &self.inject), &self.inject_group, lit)?;
+            let inject = ("vxgi injection", &self.inject);
+            self.over_regions(fc, profiler, inject, &self.inject_group, lit)?;
             self.build_mips(fc, profiler, 0, "vxgi mips")?;
-            if self.bounces > 1 {
-                let pass = ("vxgi bounce", &self.bounce);
-                self.over_levels(fc, profiler, pass, &self.bounce_group, &all)?;
-                self.build_mips(fc, profiler, 1, "vxgi bounce mips")?;
-            }
+        }
+        let bounced = if self.light_dirty || rebuilt.count() > 0 { &all } else { &fresh };
+        if self.bounces > 1 && !bounced.is_empty() {
+            let pass = ("vxgi bounce", &self.bounce);
+            self.over_regions(fc, profiler, pass, &self.bounce_group, bounced)?;
+            self.build_mips(fc, profiler, 1, "vxgi bounce mips")?;
         }
         self.voxels_dirty = [false; MAX_CLIPMAPS];
         self.light_dirty = false;
@@ -664,7 +914,7 @@ impl Technique for Vxgi {
         self.direct.render(fc, profiler)?;
         let workgroups = [fc.frame.width.div_ceil(compute::TILE), fc.frame.height.div_ceil(compute::TILE), 1];
         profiler.pass(fc.ctx, "vxgi cone tracing", |e| {
-            self.record(e, fc, ("vxgi cone tracing", &self.shade), &self.shade_group, 0, workgroups);
+            self.record(e, fc, ("vxgi cone tracing", &self.shade), (&self.shade_group, None), 0, workgroups);
         })?;
         Ok(())
     }
@@ -695,6 +945,13 @@ impl Technique for Vxgi {
         c.insert("vxgi_voxel_size".into(), f64::from(self.volume.clips[0][3]));
         c.insert("vxgi_levels".into(), f64::from(self.settings.levels()));
         c.insert("vxgi_clipmap_levels".into(), f64::from(self.settings.clips));
+        c.insert("vxgi_level_scrolls".into(), self.scrolls as f64);
+        c.insert("vxgi_level_rebuilds".into(), self.rebuilds as f64);
+        let scratch = self
+            .scroll
+            .as_ref()
+            .map_or(0, |s| [&s.albedo, &s.normal, &s.radiance].map(texture_bytes).iter().sum());
+        c.insert("vxgi_scroll_scratch_bytes".into(), scratch as f64);
         for k in 1..self.settings.clips as usize {
             c.insert(format!("vxgi_clip{k}_voxel_size"), f64::from(self.volume.clips[k][3]));
         }

@@ -5,27 +5,44 @@
 // scene when CLIPS = 1): level k's minimum corner is `volume.clips[k].xyz` and its voxel edge
 // `volume.clips[k].w`, each level twice the voxel of the one before, the coarsest over the scene.
 // Positions inside a level are in its voxel units ("grid units": voxel c spans [c, c+1) on each axis).
+// Each level's voxels also lie on a lattice anchored at `volume.origin` (the coarsest level's corner):
+// voxel c of level k is lattice voxel corners[k] + c. Voxelisation and injection compute from lattice
+// indices alone, so that a voxel gets the same words and light wherever its level lies (scrolling).
 // The levels are stacked along z in every volume texture: voxel c of level k is texel c + (0, 0, k·GRID).
 // Voxelisation leaves two r32uint words per voxel: the running mean of the diffuse albedo of the surfaces
 // in it (rgb, unorm8) with their count (the top byte; 0 = empty), and the running mean of their authored
 // normals (snorm8 xyz).
 
-struct VxgiVolume {
-    clips: array<vec4f, MAX_CLIPMAPS>,
+// A box of voxels [lo, hi) of a level (xyz).
+struct VoxelBox {
+    lo: vec4i,
+    hi: vec4i,
 }
 
-// Per dispatch of the volume passes: the axis voxelisation's rays follow, the level a pass works on.
+struct VxgiVolume {
+    clips: array<vec4f, MAX_CLIPMAPS>,
+    corners: array<vec4i, MAX_CLIPMAPS>,
+    // This frame's scroll per level: voxel c holds what voxel c + shift held.
+    shifts: array<vec4i, MAX_CLIPMAPS>,
+    // REGIONS boxes per level for this frame's volume passes: the slabs a scroll enters, the whole level.
+    boxes: array<VoxelBox, REGIONS * MAX_CLIPMAPS>,
+    origin: vec4f,
+}
+
+// Per dispatch of the volume passes: the axis voxelisation's rays follow, the level and the region of
+// it a pass works on.
 struct DispatchSlot {
     axis: u32,
     clip: u32,
-    _pad0: u32,
-    _pad1: u32,
+    region: u32,
+    _pad: u32,
 }
 
 @group(2) @binding(0) var<uniform> volume: VxgiVolume;
 @group(2) @binding(9) var<uniform> dispatch_slot: DispatchSlot;
 @group(2) @binding(1) var voxel_albedo: texture_storage_3d<r32uint, read_write>;
 @group(2) @binding(2) var voxel_normal: texture_storage_3d<r32uint, read_write>;
+@group(2) @binding(3) var radiance_out: texture_storage_3d<rgba16float, write>;
 
 fn voxel_size(k: u32) -> f32 {
     return volume.clips[k].w;
@@ -37,6 +54,26 @@ fn grid_position(k: u32, p: vec3f) -> vec3f {
 
 fn world_position(k: u32, g: vec3f) -> vec3f {
     return volume.clips[k].xyz + g * voxel_size(k);
+}
+
+// The box of voxels this dispatch works on.
+fn dispatch_box() -> VoxelBox {
+    return volume.boxes[REGIONS * dispatch_slot.clip + dispatch_slot.region];
+}
+
+// Voxel c of level k on the lattice, and p in lattice units of level k: the same numbers wherever the
+// level lies.
+fn lattice_voxel(k: u32, c: vec3i) -> vec3i {
+    return volume.corners[k].xyz + c;
+}
+
+fn lattice_position(k: u32, p: vec3f) -> vec3f {
+    return (p - volume.origin.xyz) / voxel_size(k);
+}
+
+// The centre of voxel c of level k, from its lattice index.
+fn voxel_centre(k: u32, c: vec3i) -> vec3f {
+    return volume.origin.xyz + (vec3f(lattice_voxel(k, c)) + 0.5) * voxel_size(k);
 }
 
 fn inside_grid(g: vec3f) -> bool {

@@ -24,36 +24,50 @@ fn add_surface(c: vec3u, albedo: vec3f, normal: vec3f) {
     store_voxel(c, v);
 }
 
+// Clears the dispatch's box.
 @compute @workgroup_size(4, 4, 4)
 fn clear_voxels(@builtin(global_invocation_id) id: vec3u) {
-    if any(id >= vec3u(GRID)) {
+    let b = dispatch_box();
+    let c = b.lo.xyz + vec3i(id);
+    if any(c >= b.hi.xyz) {
         return;
     }
-    let t = clip_texel(dispatch_slot.clip, id);
+    let t = clip_texel(dispatch_slot.clip, vec3u(c));
     textureStore(voxel_albedo, t, vec4u(0u));
     textureStore(voxel_normal, t, vec4u(0u));
 }
 
+// One thread per column of the dispatch's box along `dispatch_slot.axis`. The column's ray is the same
+// for every box and every placement of the level: it starts on the lattice origin's plane, through the
+// centres of the column's lattice voxels, and only its interval changes (the box's span, widened by a
+// voxel at each end so that surfaces on the box's faces are met; each surface goes to the voxel it
+// belongs to, if that lies in the box). A scrolled level's new slabs then get the voxels a level
+// voxelised where it stands would get.
 @compute @workgroup_size(8, 8)
 fn voxelize(@builtin(global_invocation_id) id: vec3u) {
-    if any(id.xy >= vec2u(GRID)) {
-        return;
-    }
     let a = dispatch_slot.axis;
     let level = dispatch_slot.clip;
-    var g = vec3f(0.0);
-    g[(a + 1u) % 3u] = f32(id.x) + 0.5;
-    g[(a + 2u) % 3u] = f32(id.y) + 0.5;
+    let b = dispatch_box();
+    let u = (a + 1u) % 3u;
+    let v = (a + 2u) % 3u;
+    if i32(id.x) >= b.hi[u] - b.lo[u] || i32(id.y) >= b.hi[v] - b.lo[v] {
+        return;
+    }
+    let corner = volume.corners[level].xyz;
+    var w = vec3f(0.0);
+    w[u] = f32(corner[u] + b.lo[u] + i32(id.x)) + 0.5;
+    w[v] = f32(corner[v] + b.lo[v] + i32(id.y)) + 0.5;
     var dir = vec3f(0.0);
     dir[a] = 1.0;
-    let ray = Ray(world_position(level, g), dir);
-    let column = f32(GRID) * voxel_size(level);
+    let cell = voxel_size(level);
+    let ray = Ray(volume.origin.xyz + w * cell, dir);
+    var tmin = f32(corner[a] + b.lo[a] - 1) * cell;
+    let tmax = f32(corner[a] + b.hi[a] + 1) * cell;
     // Hits closer than this to the previous one are the same surface (a shared edge, a coplanar twin).
-    let separation = FACE_TIE * voxel_size(level);
-    var tmin = 0.0;
-    // A column holds at most GRID voxels; more hits than twice that are surfaces sharing voxels.
-    for (var k = 0u; k < 2u * GRID; k++) {
-        let hit = trace_closest(ray, tmin, column);
+    let separation = FACE_TIE * cell;
+    // A column holds at most GRID + 2 voxels; more hits than twice that are surfaces sharing voxels.
+    for (var k = 0u; k < 2u * GRID + 4u; k++) {
+        let hit = trace_closest(ray, tmin, tmax);
         if !hit_found(hit) {
             break;
         }
@@ -61,9 +75,9 @@ fn voxelize(@builtin(global_invocation_id) id: vec3u) {
         let s = surface_at(hit.triangle, hit.u, hit.v, dir);
         // surface_at faces the normals towards the ray; the voxel keeps the authored side.
         let authored = select(1.0, -1.0, hits_back_face(hit.triangle, hit.u, hit.v, dir));
-        let tie = grid_position(level, s.position) - s.geometric_normal * (authored * FACE_TIE);
-        let c = floor(tie);
-        if inside_grid(c) {
+        let tie = lattice_position(level, s.position) - s.geometric_normal * (authored * FACE_TIE);
+        let c = vec3i(floor(tie)) - corner;
+        if all(c >= b.lo.xyz) && all(c < b.hi.xyz) {
             let albedo = brdf_lobe_weights(s.material, 1.0).diffuse;
             add_surface(clip_texel(level, vec3u(c)), albedo, s.normal * authored);
         }
