@@ -16,6 +16,7 @@
 #     ddgi       issue 12    scripts/measure-ddgi.py --suite benches/ddgi-gpu.toml --doc ddgi-gpu --no-lag
 #     ddgi-256   issue 12    scripts/measure-ddgi.py --size 256x256 --doc ddgi-256 (the 128² suite at 256², with the lag runs)
 #     lpv, vxgi  issue 11    scripts/measure-lpv.py / measure-vxgi.py --size 1920x1080 --doc lpv-gpu / vxgi-gpu
+#     vxgi-scroll  issue 11  scripts/measure-scroll.py --size 1920x1080 --timing frame --doc vxgi-scroll-gpu
 #     radiance-cache  issue 13  scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu
 #     tests      the whole test suite (.gpu/test.sh)
 # The documents land in docs/measurements/ as on any machine; with $OUT set (the device tool's folder that
@@ -94,6 +95,7 @@ for step in "$@"; do
         ddgi-256) cmd=(python3 scripts/measure-ddgi.py --size 256x256 --doc ddgi-256) ;;
         lpv) cmd=(python3 scripts/measure-lpv.py --size 1920x1080 --doc lpv-gpu) ;;
         vxgi) cmd=(python3 scripts/measure-vxgi.py --size 1920x1080 --doc vxgi-gpu) ;;
+        vxgi-scroll) cmd=(python3 scripts/measure-scroll.py --size 1920x1080 --timing frame --doc vxgi-scroll-gpu) ;;
         radiance-cache) cmd=(python3 scripts/measure-radiance-cache.py --size 1920x1080 --doc radiance-cache-gpu) ;;
         tests) rm -rf .gpu/test-out; cmd=(env OUT="$here/.gpu/test-out" bash .gpu/test.sh) ;;
         *) echo "unknown step $name" >> "$log"; continue ;;
