@@ -5,18 +5,20 @@
 
 @group(0) @binding(0) var source: texture_3d<f32>;
 @group(0) @binding(1) var destination: texture_storage_3d<rgba16float, write>;
+// The clipmap level a dispatch filters (x): one dispatch per level whose voxels changed.
+@group(0) @binding(2) var<uniform> clip: vec4u;
 
 fn over(near: vec4f, far: vec4f) -> vec4f {
     return near + (1.0 - near.a) * far;
 }
 
-fn directional_level(id: vec3u, directional_source: bool) {
+fn directional_level(local: vec3u, directional_source: bool) {
     // Clipmap levels are stacked along z (depth CLIPS × size): each level's children stay in its block.
-    let dims = textureDimensions(destination);
-    let size = dims.y;
-    if id.x >= size || id.y >= size || id.z >= dims.z {
+    let size = textureDimensions(destination).y;
+    if any(local >= vec3u(size)) {
         return;
     }
+    let id = local + vec3u(0u, 0u, clip.x * size);
     for (var d = 0u; d < 6u; d++) {
         let axis = d / 2u;
         let forward = d % 2u == 0u;

@@ -27,8 +27,8 @@
 //! lines up with the next level's voxels). A cone sample reads the finest level that holds it and is
 //! as fine as its diameter needs. A level that moves by less than its width scrolls (`scroll`): the
 //! voxels, radiance and second bounce it keeps shift with it ("vxgi scroll", through a scratch copy of
-//! one level), and only the slabs it enters are voxelised, lit and bounced; its mips are filtered
-//! again. Voxelisation and injection compute everything from a voxel's index on a lattice anchored at
+//! one level), and only the slabs it enters are voxelised, lit and bounced; its directional mips
+//! are filtered again (those of levels that did not change are kept). Voxelisation and injection compute everything from a voxel's index on a lattice anchored at
 //! the coarsest level's corner (never from the level's own corner), so a scrolled level holds, bit for
 //! bit, the voxels and first-bounce radiance that a level voxelised and lit where it now stands would.
 //! The second bounce of the voxels kept is the one gathered where the levels stood before: the same
@@ -263,6 +263,13 @@ pub fn entered_slabs(grid: u32, shift: [i32; 3]) -> Vec<[[i32; 3]; 2]> {
     slabs
 }
 
+/// The clipmap levels of (level, region) pairs, each once, in order.
+fn levels_of(regions: &[(usize, usize)]) -> Vec<usize> {
+    let mut levels: Vec<usize> = regions.iter().map(|&(k, _)| k).collect();
+    levels.dedup();
+    levels
+}
+
 /// What a frame does to one clipmap level's voxels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum LevelWork {
@@ -419,6 +426,8 @@ pub struct Vxgi {
     shade_group: wgpu::BindGroup,
     /// Per bounce, the bind groups of the directional levels 1.. (each from the level above).
     mip_groups: [Vec<wgpu::BindGroup>; 2],
+    /// Per clipmap level, the slot of its directional mips' dispatches.
+    mip_slots: DispatchSlots,
     mip_generator: MipGenerator,
     clear: wgpu::ComputePipeline,
     voxelize: wgpu::ComputePipeline,
@@ -565,12 +574,17 @@ impl Vxgi {
         let bounce_group = group("vxgi bounce", &view_level(&lit[1], 0), &full(&lit[0]));
         let shade_group = group("vxgi cone tracing", &view_level(&unused_target, 0), &full(last));
 
+        // One dispatch slot per clipmap level: the directional mips are filtered level by level, for
+        // the levels whose voxels changed.
+        let mip_slots =
+            DispatchSlots::new(ctx, "vxgi mip slots", &(0..clips).map(|k| [k, 0, 0, 0]).collect::<Vec<_>>());
         let mip_layout = compute::layout(
             ctx,
             "vxgi mips",
             &[
                 compute::texture_3d_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
                 compute::storage_texture_3d_entry(1, RADIANCE_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
+                mip_slots.entry(2),
             ],
         );
         let mip_groups = [0, 1].map(|b| match &directional {
@@ -585,6 +599,7 @@ impl Vxgi {
                         &[
                             wgpu::BindingResource::TextureView(&source),
                             wgpu::BindingResource::TextureView(&target),
+                            mip_slots.resource(),
                         ],
                     )
                 })
@@ -669,6 +684,7 @@ impl Vxgi {
             bounce_group,
             shade_group,
             mip_groups,
+            mip_slots,
             mip_generator: MipGenerator::new(),
             voxels_dirty: [true; MAX_CLIPMAPS],
             light_dirty: true,
@@ -790,13 +806,14 @@ impl Vxgi {
         Ok(())
     }
 
-    /// The mips of bounce `b`'s radiance (pass `name`).
+    /// The mips of bounce `b`'s radiance in the clipmap levels `levels` (directional mips; isotropic
+    /// mips are filtered over the whole texture), pass `name`.
     fn build_mips(
         &self,
         fc: &FrameContext,
         profiler: &mut Profiler,
-        b: usize,
-        name: &str,
+        (b, name): (usize, &str),
+        levels: &[usize],
     ) -> Result<(), RenderError> {
         let ctx = fc.ctx;
         let mut failure = None;
@@ -805,17 +822,14 @@ impl Vxgi {
                 failure = self.mip_generator.record(ctx, e, &self.lit[b]).err();
                 return;
             }
-            for (k, group) in self.mip_groups[b].iter().enumerate() {
-                let pipeline = if k == 0 { &self.mip_from_base } else { &self.mip_from_directional };
-                let size = (self.settings.grid >> (k + 1)).max(1);
-                let depth = size * self.settings.clips;
-                compute::dispatch(
-                    e,
-                    name,
-                    pipeline,
-                    &[group],
-                    [size.div_ceil(4), size.div_ceil(4), depth.div_ceil(4)],
-                );
+            for (m, group) in self.mip_groups[b].iter().enumerate() {
+                let pipeline = if m == 0 { &self.mip_from_base } else { &self.mip_from_directional };
+                let size = (self.settings.grid >> (m + 1)).max(1);
+                for &k in levels {
+                    let mut pass = crate::gpu::dispatch::compute_pass(e, name, pipeline, &[]);
+                    pass.set_bind_group(0, group, &[self.mip_slots.offsets().nth(k).unwrap_or(0)]);
+                    pass.dispatch_workgroups(size.div_ceil(4), size.div_ceil(4), size.div_ceil(4));
+                }
             }
         })?;
         failure.map_or(Ok(()), |e| Err(e.into()))
@@ -894,13 +908,13 @@ impl Vxgi {
         if !lit.is_empty() {
             let inject = ("vxgi injection", &self.inject);
             self.over_regions(fc, profiler, inject, &self.inject_group, lit)?;
-            self.build_mips(fc, profiler, 0, "vxgi mips")?;
+            self.build_mips(fc, profiler, (0, "vxgi mips"), &levels_of(lit))?;
         }
         let bounced = if self.light_dirty || rebuilt.count() > 0 { &all } else { &fresh };
         if self.bounces > 1 && !bounced.is_empty() {
             let pass = ("vxgi bounce", &self.bounce);
             self.over_regions(fc, profiler, pass, &self.bounce_group, bounced)?;
-            self.build_mips(fc, profiler, 1, "vxgi bounce mips")?;
+            self.build_mips(fc, profiler, (1, "vxgi bounce mips"), &levels_of(bounced))?;
         }
         self.voxels_dirty = [false; MAX_CLIPMAPS];
         self.light_dirty = false;

@@ -340,6 +340,13 @@ fn assert_scrolling_equals_building(
         assert!(nonzero > 0, "{what}: the volume is empty");
         assert_eq!(differing, 0, "{what}: the scrolled volume differs from one built in place");
     }
+    // Every level holding light has it in its directional mip 1 too (its block: a slab of z).
+    let (radiance, mip) = (words(ctx, &scrolled.lit[0]), directional(&scrolled));
+    let levels = scrolled.settings.clips as usize;
+    for k in 0..levels {
+        let lit = |w: &[u32]| w.chunks(w.len() / levels).nth(k).is_some_and(|b| b.iter().any(|&x| x != 0));
+        assert_eq!(lit(&radiance), lit(&mip), "level {k}: light in level 0 and in mip 1 disagree");
+    }
     scrolled
 }
 
