@@ -904,17 +904,22 @@ impl Vxgi {
         // reads every level, so it follows any rebuild or light change, but a scroll only brings the
         // slabs it enters.
         let all: Vec<(usize, usize)> = levels.map(|k| (k, WHOLE_LEVEL)).collect();
+        // Both bounces filter into the one directional texture, which holds the second bounce's mips
+        // between frames: with two, every level's mips are filtered again for each (the bounce pass
+        // reads the first bounce's everywhere); with one, those of the levels that changed.
+        let mip_levels =
+            |regions: &[(usize, usize)]| levels_of(if self.bounces > 1 { &all } else { regions });
         let lit = if self.light_dirty { &all } else { &fresh };
         if !lit.is_empty() {
             let inject = ("vxgi injection", &self.inject);
             self.over_regions(fc, profiler, inject, &self.inject_group, lit)?;
-            self.build_mips(fc, profiler, (0, "vxgi mips"), &levels_of(lit))?;
+            self.build_mips(fc, profiler, (0, "vxgi mips"), &mip_levels(lit))?;
         }
         let bounced = if self.light_dirty || rebuilt.count() > 0 { &all } else { &fresh };
         if self.bounces > 1 && !bounced.is_empty() {
             let pass = ("vxgi bounce", &self.bounce);
             self.over_regions(fc, profiler, pass, &self.bounce_group, bounced)?;
-            self.build_mips(fc, profiler, (1, "vxgi bounce mips"), &levels_of(bounced))?;
+            self.build_mips(fc, profiler, (1, "vxgi bounce mips"), &mip_levels(bounced))?;
         }
         self.voxels_dirty = [false; MAX_CLIPMAPS];
         self.light_dirty = false;
