@@ -25,13 +25,6 @@ fn voxel_surface(k: u32, c: vec3i, v: Voxel) -> GSurface {
     return s;
 }
 
-// Voxel `id` of the dispatch's box (xyz, in the level) and whether the box holds it (w = 1) or not (0).
-fn box_voxel(id: vec3u) -> vec4i {
-    let b = dispatch_box();
-    let c = b.lo.xyz + vec3i(id);
-    return vec4i(c, select(0, 1, all(c < b.hi.xyz)));
-}
-
 // One dispatch per level and region (`dispatch_slot`).
 @compute @workgroup_size(4, 4, 4)
 fn inject(@builtin(global_invocation_id) id: vec3u) {

@@ -61,6 +61,13 @@ fn dispatch_box() -> VoxelBox {
     return volume.boxes[REGIONS * dispatch_slot.clip + dispatch_slot.region];
 }
 
+// Voxel `id` of the dispatch's box (xyz, in the level) and whether the box holds it (w = 1) or not (0).
+fn box_voxel(id: vec3u) -> vec4i {
+    let b = dispatch_box();
+    let c = b.lo.xyz + vec3i(id);
+    return vec4i(c, select(0, 1, all(c < b.hi.xyz)));
+}
+
 // Voxel c of level k on the lattice, and p in lattice units of level k: the same numbers wherever the
 // level lies.
 fn lattice_voxel(k: u32, c: vec3i) -> vec3i {

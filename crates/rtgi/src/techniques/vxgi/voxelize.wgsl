@@ -27,12 +27,11 @@ fn add_surface(c: vec3u, albedo: vec3f, normal: vec3f) {
 // Clears the dispatch's box.
 @compute @workgroup_size(4, 4, 4)
 fn clear_voxels(@builtin(global_invocation_id) id: vec3u) {
-    let b = dispatch_box();
-    let c = b.lo.xyz + vec3i(id);
-    if any(c >= b.hi.xyz) {
+    let voxel = box_voxel(id);
+    if voxel.w == 0 {
         return;
     }
-    let t = clip_texel(dispatch_slot.clip, vec3u(c));
+    let t = clip_texel(dispatch_slot.clip, vec3u(voxel.xyz));
     textureStore(voxel_albedo, t, vec4u(0u));
     textureStore(voxel_normal, t, vec4u(0u));
 }
