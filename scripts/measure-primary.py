@@ -50,7 +50,7 @@ def main():
         "from the ray differentials. Times are per frame, every pass submitted alone and waited for "
         "(`timing = \"passes\"`): the wall time of the G-buffer pass's submission, and what the GPU "
         "timestamps around it say (\"unreliable\" where the profiler found them summing to under a quarter "
-        "of the wall time: lavapipe's timestamps leave the ray-cast pass's work out). FLIP: `direct` with "
+        "of the wall time, as lavapipe's were before the profiler's `write_start`). FLIP: `direct` with "
         "raster against with trace (the same image up to silhouette pixels and texture-level choices; "
         "`direct` runs with its ray-traced light samples off, so its error against the full-GI reference "
         "says nothing here and is left out).",

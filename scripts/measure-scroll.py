@@ -15,10 +15,10 @@ unit test `a_scrolled_clipmap_equals_one_built_in_place`), so the images must be
 bounce of the voxels a level keeps is the one gathered before it moved. Options: --size WxH, --frames N,
 --resolution N, --timing passes|frame, --doc NAME, --allow-dirty.
 
---timing passes (the default) times by wall clock, every pass submitted alone and waited for: on lavapipe
-the GPU timestamps around "vxgi mips" miss its work (cornell at 128³: 0.03 ms by timestamps, 184 ms by wall
-clock), which would hide the mips from every frame that rebuilds or scrolls a level. --timing frame takes
-GPU timestamps in one submission per frame (for GPUs, where a pass's submission and wait would dwarf it).
+--timing passes (the default) times by wall clock, every pass submitted alone and waited for (exact on
+lavapipe, where a submission runs synchronously; before the profiler's `write_start`, lavapipe's timestamps
+around "vxgi mips" also missed its work). --timing frame takes GPU timestamps in one submission per frame
+(for GPUs, where a pass's submission and wait would dwarf it).
 """
 import argparse
 import sys
@@ -79,8 +79,7 @@ def main():
         f"`rtgi render --scene {SCENE} --technique vxgi --set clipmap_levels=3 --set resolution={args.resolution} "
         f"--set bounces=B --set scroll=S --size {args.size} --frames {args.frames} --fps 30 --timing {args.timing}`: "
         f"the first {args.frames / 30:.1f} s of the flight. "
-        + ("Times are wall clock, every pass submitted alone and waited for (lavapipe's timestamps miss the "
-           "mips' work). " if by_wall else "Times are GPU timestamps, one submission per frame. ")
+        + ("Times are wall clock, every pass submitted alone and waited for. " if by_wall else "Times are GPU timestamps, one submission per frame. ")
         + "ms per frame: mean over the frames after the first (the "
         "first builds every level). Per pass: the mean over the frames it ran in, its first run left out, and in "
         "brackets those frames and its total over them. Levels: the clipmap levels scrolled and rebuilt over "

@@ -500,7 +500,7 @@ warmup = 5
         let load = |name: &str| Suite::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
         // DDGI's cells converge their probes first; the other techniques of its suite do not need to.
         let ddgi = load("ddgi.toml");
-        // The G-buffer comparison times every pass alone (lavapipe's timestamps miss its ray cast).
+        // The G-buffer comparison times every pass alone: wall times, beside the timestamps.
         assert_eq!(load("primary.toml").timing, crate::gpu::TimingMode::Passes);
         assert_eq!(ddgi.timing, crate::gpu::TimingMode::Frame);
         assert!(ddgi.cells.iter().all(|c| (c.warmup == 100) == (c.technique == "ddgi")));
