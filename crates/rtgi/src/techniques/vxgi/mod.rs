@@ -17,8 +17,10 @@
 //!
 //! Departures from the paper, for rtgi's platform: voxelisation casts rays through the shared BVH
 //! along the three axes (one per voxel column, the equivalent of the paper's dominant-axis
-//! rasterisation without the conservative mode; compute is fast and raster slow on the GPUs rtgi
-//! targets), and injection lights each voxel with the same direct-light routine as the camera's
+//! rasterisation; compute is fast and raster slow on the GPUs rtgi targets), then, for the paper's
+//! conservative rasterisation (`voxelization=conservative`, the default), every triangle claims the
+//! empty voxels its area overlaps by a separating-axis test in compute (conservative.wgsl), and
+//! injection lights each voxel with the same direct-light routine as the camera's
 //! pixels (traced shadow rays instead of a shadow map; emissive triangles and the environment
 //! included) instead of splatting a light-view map.
 //!
@@ -42,6 +44,7 @@ use std::collections::BTreeMap;
 use bytemuck::{Pod, Zeroable};
 
 use crate::frame::OUTPUT_FORMAT;
+use crate::gpu::dispatch::workgroups_for;
 use crate::gpu::{GpuContext, GpuScene, MipGenerator, Need, Profiler, TextureBuilder};
 use crate::params::{ParamKind, ParamSpec, ParamValues};
 use crate::shaders::Defines;
@@ -74,11 +77,16 @@ const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const VOXEL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 /// Most clipmap levels.
 pub const MAX_CLIPMAPS: usize = 4;
+/// Conservative voxelisation: triangles per workgroup of the claim pass, and the bits of a claim that
+/// name its triangle (+1; the rest rank it), which bound the scene's triangles.
+const CLAIM_GROUP: u32 = 64;
+const CLAIM_INDEX_BITS: u32 = 24;
+const MAX_CLAIMING_TRIANGLES: u32 = (1 << CLAIM_INDEX_BITS) - 1;
 /// A cone sample uses a finer clipmap level only this many of its voxels inside its border: filtering
 /// at its mip 1 reads a voxel of 2 around the sample.
 const CLIP_MARGIN: f32 = 2.0;
 
-const VXGI_PARAMS: [ParamSpec; 20] = with_direct_params!(
+const VXGI_PARAMS: [ParamSpec; 21] = with_direct_params!(
     ParamSpec {
         name: "resolution",
         kind: ParamKind::Int { min: 16, max: 512 },
@@ -150,6 +158,14 @@ const VXGI_PARAMS: [ParamSpec; 20] = with_direct_params!(
         default: "true",
         doc: "clipmap levels that move by less than their width keep the voxels they still hold (shifted) \
               and voxelise and light only the slabs they enter (false: a level that moves is rebuilt)",
+    },
+    ParamSpec {
+        name: "voxelization",
+        kind: ParamKind::Choice(&["conservative", "columns"]),
+        default: "conservative",
+        doc: "columns: one ray per voxel column along each axis, a voxel for each surface crossing a \
+              column's centre (surfaces smaller than a voxel can be missed); conservative: also every \
+              voxel a triangle's area overlaps (needs r32uint texture atomics)",
     },
     ParamSpec {
         name: "update",
@@ -305,6 +321,7 @@ pub struct ShaderSettings {
     pub specular_cone: bool,
     pub anisotropic: bool,
     pub inject_samples: u32,
+    pub conservative: bool,
 }
 
 impl ShaderSettings {
@@ -321,6 +338,7 @@ impl ShaderSettings {
             specular_cone: p.bool("specular_cone"),
             anisotropic: p.bool("anisotropic"),
             inject_samples: p.int("inject_samples") as u32,
+            conservative: p.choice("voxelization") == "conservative",
         }
     }
 
@@ -352,6 +370,9 @@ impl ShaderSettings {
             .bool("SPECULAR_CONE", self.specular_cone)
             .bool("ANISOTROPIC", self.anisotropic)
             .u32("INJECT_SAMPLES", self.inject_samples)
+            .bool("CONSERVATIVE", self.conservative)
+            .u32("CLAIM_GROUP", CLAIM_GROUP)
+            .u32("CLAIM_INDEX_BITS", CLAIM_INDEX_BITS)
     }
 }
 
@@ -360,6 +381,10 @@ const CONE_WGSL: &str = include_str!("cone.wgsl");
 
 pub fn voxelize_source() -> String {
     format!("#import common/frame.wgsl\n{VOLUME_WGSL}\n{}", include_str!("voxelize.wgsl"))
+}
+
+pub fn conservative_source() -> String {
+    format!("{}\n{}", voxelize_source(), include_str!("conservative.wgsl"))
 }
 
 pub fn inject_source() -> String {
@@ -431,6 +456,8 @@ pub struct Vxgi {
     mip_generator: MipGenerator,
     clear: wgpu::ComputePipeline,
     voxelize: wgpu::ComputePipeline,
+    /// Conservative voxelisation's claim and resolve passes.
+    conservative: Option<[wgpu::ComputePipeline; 2]>,
     inject: wgpu::ComputePipeline,
     bounce: wgpu::ComputePipeline,
     mip_from_base: wgpu::ComputePipeline,
@@ -466,6 +493,16 @@ impl Vxgi {
         let settings = ShaderSettings::from_params(p);
         let bounces = p.int("bounces") as u32;
         let n = settings.grid;
+        if settings.conservative {
+            crate::gpu::require(ctx, &[Need::TextureAtomics], "vxgi voxelization=conservative")?;
+            let triangles = setup.gpu_scene.info.triangle_count;
+            if triangles > MAX_CLAIMING_TRIANGLES {
+                return Err(RenderError::InvalidSettings(format!(
+                    "vxgi voxelization=conservative handles at most {MAX_CLAIMING_TRIANGLES} triangles and \
+                     the scene has {triangles}; use voxelization=columns"
+                )));
+            }
+        }
         let (width, height) = (setup.frame.width, setup.frame.height);
         let direct_texture = compute::storage_texture(ctx, "vxgi direct", width, height, OUTPUT_FORMAT);
         let direct = DirectLighting::new(setup, &direct_texture, DirectOutput::Accumulate)?;
@@ -481,10 +518,17 @@ impl Vxgi {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             })
         };
-        let voxels =
-            |label| TextureBuilder::d3(label, n, n, clips * n, VOXEL_FORMAT).storage().copy().build(ctx);
-        let voxel_albedo = voxels("vxgi voxel albedo")?;
-        let voxel_normal = voxels("vxgi voxel normal")?;
+        let voxels = |label, usage| {
+            TextureBuilder::d3(label, n, n, clips * n, VOXEL_FORMAT).storage().copy().usage(usage).build(ctx)
+        };
+        let voxel_albedo = voxels("vxgi voxel albedo", wgpu::TextureUsages::empty())?;
+        // Conservative voxelisation claims voxels by atomic maxima into their normal words.
+        let (normal_usage, normal_access) = if settings.conservative {
+            (wgpu::TextureUsages::STORAGE_ATOMIC, wgpu::StorageTextureAccess::Atomic)
+        } else {
+            (wgpu::TextureUsages::empty(), wgpu::StorageTextureAccess::ReadWrite)
+        };
+        let voxel_normal = voxels("vxgi voxel normal", normal_usage)?;
         let radiance_mips = if settings.anisotropic { 1 } else { settings.levels() };
         // `size`³ per clipmap level, the levels stacked along z (stand-ins: one texel).
         let radiance = |label, size: u32| {
@@ -528,7 +572,7 @@ impl Vxgi {
             &[
                 compute::uniform_entry(0),
                 compute::storage_texture_3d_entry(1, VOXEL_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
-                compute::storage_texture_3d_entry(2, VOXEL_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
+                compute::storage_texture_3d_entry(2, VOXEL_FORMAT, normal_access),
                 compute::storage_texture_3d_entry(3, RADIANCE_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
                 compute::texture_3d_entry(4, filterable),
                 compute::texture_3d_entry(5, filterable),
@@ -667,6 +711,15 @@ impl Vxgi {
             volume,
             clear: pipeline("vxgi clear", &voxelize_wgsl, "clear_voxels")?,
             voxelize: pipeline("vxgi voxelization", &voxelize_wgsl, "voxelize")?,
+            conservative: if settings.conservative {
+                let wgsl = conservative_source();
+                Some([
+                    pipeline("vxgi voxelization", &wgsl, "claim_voxels")?,
+                    pipeline("vxgi voxelization", &wgsl, "resolve_claims")?,
+                ])
+            } else {
+                None
+            },
             inject: pipeline("vxgi injection", &inject_wgsl, "inject")?,
             bounce: pipeline("vxgi bounce", &inject_wgsl, "bounce")?,
             mip_from_base: mip_pipeline("from_base")?,
@@ -782,6 +835,15 @@ impl Vxgi {
                     let columns = [across((axis + 1) % 3), across((axis + 2) % 3), 1];
                     let pass = ("vxgi voxelization", &self.voxelize);
                     self.record(e, fc, pass, (&self.inject_group, None), slot_index(k, r, axis), columns);
+                }
+                if let Some([claim, resolve]) = &self.conservative {
+                    let most = fc.ctx.device.limits().max_compute_workgroups_per_dimension;
+                    let groups = workgroups_for(fc.gpu_scene.info.triangle_count, CLAIM_GROUP, most);
+                    let pass = ("vxgi voxelization", claim);
+                    self.record(e, fc, pass, (&self.inject_group, None), slot_index(k, r, 0), groups);
+                    let pass = ("vxgi voxelization", resolve);
+                    let workgroups = self.box_workgroups(k, r);
+                    self.record(e, fc, pass, (&self.inject_group, None), slot_index(k, r, 0), workgroups);
                 }
             }
         })?;

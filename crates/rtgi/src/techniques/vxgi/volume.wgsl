@@ -41,7 +41,12 @@ struct DispatchSlot {
 @group(2) @binding(0) var<uniform> volume: VxgiVolume;
 @group(2) @binding(9) var<uniform> dispatch_slot: DispatchSlot;
 @group(2) @binding(1) var voxel_albedo: texture_storage_3d<r32uint, read_write>;
+// Atomic under conservative voxelisation, whose claims are atomic maxima into empty voxels' words.
+#if CONSERVATIVE
+@group(2) @binding(2) var voxel_normal: texture_storage_3d<r32uint, atomic>;
+#else
 @group(2) @binding(2) var voxel_normal: texture_storage_3d<r32uint, read_write>;
+#endif
 @group(2) @binding(3) var radiance_out: texture_storage_3d<rgba16float, write>;
 
 fn voxel_size(k: u32) -> f32 {
@@ -121,6 +126,11 @@ fn load_voxel(c: vec3u) -> Voxel {
     v.albedo = unpack4x8unorm(a).rgb;
     v.normal = unpack4x8snorm(textureLoad(voxel_normal, c).x).xyz;
     return v;
+}
+
+// Whether surfaces were added to voxel c (its count, in the albedo word's top byte).
+fn voxel_occupied(c: vec3u) -> bool {
+    return (textureLoad(voxel_albedo, c).x >> 24u) > 0u;
 }
 
 fn store_voxel(c: vec3u, v: Voxel) {

@@ -2,8 +2,8 @@
 // column of voxels along it, through the voxel centres of the other two axes, meets the surfaces in
 // order; every hit adds its surface to the voxel that holds it. A triangle is found by the rays of its
 // dominant axis at least once per voxel it crosses, as a rasteriser projecting it on that axis would
-// (the paper's voxelisation, without conservative rasterisation: surfaces thinner than a voxel in all
-// three projections can be missed). The axes run in three dispatches and each thread owns its column,
+// (the paper's voxelisation without its conservative rasterisation: a surface that crosses a voxel away
+// from the column centres can be missed; conservative.wgsl adds those voxels). The axes run in three dispatches and each thread owns its column,
 // so the running means are updated without atomics and in the same order on every run. Each clipmap
 // level is voxelised by its own dispatches (`dispatch_slot.clip`).
 
