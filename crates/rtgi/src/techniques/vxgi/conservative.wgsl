@@ -17,6 +17,8 @@
 
 // CLAIM_GROUP (triangles per workgroup) and CLAIM_INDEX_BITS (bits of a claim naming its triangle) come
 // from vxgi/mod.rs.
+#import common/indirect.wgsl
+
 const CLAIM_INDEX_MASK: u32 = (1u << CLAIM_INDEX_BITS) - 1u;
 // Voxel boxes are shrunk by this (voxels) on every side: a surface on a voxel face (moved behind it by
 // FACE_TIE, as the column rays move their hits) or an edge along one does not claim the voxel on the
@@ -42,6 +44,24 @@ struct ClaimTriangle {
     lo: vec3i,
     hi: vec3i,
 }
+
+// Bricks of 4³ voxels of the level that hold claims: a bit each, and the list of those whose bit a
+// claim set first. The resolve pass runs a workgroup per listed brick (an indirect dispatch) rather
+// than a thread per voxel of the level: most of a level is empty and holds no claim, and reading its
+// voxel words costs more than the claims themselves (lavapipe: 150-200 ms at 128³).
+const BRICK: u32 = 4u;
+const BRICKS: u32 = GRID / BRICK;
+
+struct ClaimedBricks {
+    count: atomic<u32>,
+    bricks: array<u32>,
+}
+
+@group(2) @binding(10) var<storage, read_write> brick_bits: array<atomic<u32>>;
+@group(2) @binding(11) var<storage, read_write> claimed: ClaimedBricks;
+// The resolve dispatch's workgroup counts, written by resolve_arguments (bound there only: the resolve
+// dispatch reads them as its indirect arguments).
+@group(3) @binding(0) var<storage, read_write> resolve_args: array<u32, 3>;
 
 var<workgroup> claim_triangles: array<ClaimTriangle, CLAIM_GROUP>;
 // Inclusive prefix sums of the triangles' column counts.
@@ -142,11 +162,18 @@ fn claim_column(ct: ClaimTriangle, w: u32, level: u32) {
         let distance = abs(dot(unit_normal, centre - ct.a));
         let rank = u32(round(255.0 * (1.0 - saturate(distance / HALF_DIAGONAL))));
         textureAtomicMax(voxel_normal, texel, (rank << CLAIM_INDEX_BITS) | (ct.index + 1u));
+        let brick = vec3u(cell - corner) / BRICK;
+        let b = brick.x + BRICKS * (brick.y + BRICKS * brick.z);
+        let bit = 1u << (b % 32u);
+        if (atomicOr(&brick_bits[b / 32u], bit) & bit) == 0u {
+            claimed.bricks[atomicAdd(&claimed.count, 1u)] = b;
+        }
     }
 }
 
-// One workgroup per CLAIM_GROUP triangles (a 2-D dispatch: a scene may need more than 65 535), over the
-// dispatch's box of level `dispatch_slot.clip`.
+// One workgroup per CLAIM_GROUP triangles (x and y: a scene may need more than 65 535) and slice of their
+// columns (z: few triangles, as in a room of large walls, would otherwise leave a handful of
+// workgroups all the work), over the dispatch's box of level `dispatch_slot.clip`.
 @compute @workgroup_size(CLAIM_GROUP)
 fn claim_voxels(
     @builtin(workgroup_id) group: vec3u,
@@ -168,7 +195,8 @@ fn claim_voxels(
         claim_ends[li] += add;
     }
     let total = workgroupUniformLoad(&claim_ends[CLAIM_GROUP - 1u]);
-    for (var item = li; item < total; item += CLAIM_GROUP) {
+    // Slice group.z of groups.z: the workgroups of one set of triangles share out its columns.
+    for (var item = li + CLAIM_GROUP * group.z; item < total; item += CLAIM_GROUP * groups.z) {
         // The triangle whose columns hold `item`: the first whose inclusive end exceeds it.
         var lo = 0u;
         var hi = CLAIM_GROUP - 1u;
@@ -222,13 +250,31 @@ fn nearest_on_triangle(p: vec3f, a: vec3f, b: vec3f, c: vec3f) -> vec2f {
     return vec2f(vb * scale, vc * scale);
 }
 
+// One thread: the resolve dispatch's workgroups, one per claimed brick (spread over y past the device's
+// limit per dimension).
+@compute @workgroup_size(1)
+fn resolve_arguments() {
+    let groups = indirect_args(atomicLoad(&claimed.count), 1u, MAX_WORKGROUPS);
+    resolve_args = array<u32, 3>(groups.x, groups.y, groups.z);
+}
+
 // Gives each claimed voxel of the dispatch's box the surface of its claiming triangle nearest its centre
 // (its albedo and authored normal, as the column rays would have), unless an alpha mask cuts the
-// triangle away there.
+// triangle away there. One workgroup per claimed brick.
 @compute @workgroup_size(4, 4, 4)
-fn resolve_claims(@builtin(global_invocation_id) id: vec3u) {
-    let voxel = box_voxel(id);
-    if voxel.w == 0 {
+fn resolve_claims(
+    @builtin(workgroup_id) group: vec3u,
+    @builtin(num_workgroups) groups: vec3u,
+    @builtin(local_invocation_id) local: vec3u,
+) {
+    let slot = group.x + group.y * groups.x;
+    if slot >= atomicLoad(&claimed.count) {
+        return;
+    }
+    let b = claimed.bricks[slot];
+    let voxel = vec3i(vec3u(b % BRICKS, (b / BRICKS) % BRICKS, b / (BRICKS * BRICKS)) * BRICK + local);
+    let box = dispatch_box();
+    if any(voxel < box.lo.xyz) || any(voxel >= box.hi.xyz) {
         return;
     }
     let level = dispatch_slot.clip;

@@ -81,6 +81,11 @@ pub const MAX_CLIPMAPS: usize = 4;
 /// name its triangle (+1; the rest rank it), which bound the scene's triangles.
 const CLAIM_GROUP: u32 = 64;
 const CLAIM_INDEX_BITS: u32 = 24;
+/// Fewest workgroups the claim pass runs: a scene of few triangles has their columns sliced over this
+/// many (each slice sets the triangles up again, which costs little next to their columns).
+const CLAIM_WORKGROUPS: u32 = 256;
+/// Edge in voxels of the bricks whose claims the resolve pass visits (`BRICK` in conservative.wgsl).
+const CLAIM_BRICK: u32 = 4;
 const MAX_CLAIMING_TRIANGLES: u32 = (1 << CLAIM_INDEX_BITS) - 1;
 /// A cone sample uses a finer clipmap level only this many of its voxels inside its border: filtering
 /// at its mip 1 reads a voxel of 2 around the sample.
@@ -456,8 +461,7 @@ pub struct Vxgi {
     mip_generator: MipGenerator,
     clear: wgpu::ComputePipeline,
     voxelize: wgpu::ComputePipeline,
-    /// Conservative voxelisation's claim and resolve passes.
-    conservative: Option<[wgpu::ComputePipeline; 2]>,
+    conservative: Option<Conservative>,
     inject: wgpu::ComputePipeline,
     bounce: wgpu::ComputePipeline,
     mip_from_base: wgpu::ComputePipeline,
@@ -469,6 +473,19 @@ pub struct Vxgi {
     /// Levels scrolled and levels rebuilt, since creation.
     scrolls: u64,
     rebuilds: u64,
+}
+
+/// Conservative voxelisation's passes: claims, the resolve dispatch's arguments, the resolve; the buffer
+/// of those arguments and its bind group (group 3 of the arguments pass). The claimed bricks' bits and
+/// list are bound in group 2 of every pass (stand-ins of 16 bytes without conservative voxelisation).
+struct Conservative {
+    claim: wgpu::ComputePipeline,
+    arguments: wgpu::ComputePipeline,
+    resolve: wgpu::ComputePipeline,
+    resolve_args: wgpu::Buffer,
+    args_group: wgpu::BindGroup,
+    brick_bits: wgpu::Buffer,
+    claimed_bricks: wgpu::Buffer,
 }
 
 /// What scrolling a clipmap level needs: a scratch copy of one level's voxel words and radiance, and the
@@ -559,6 +576,11 @@ impl Vxgi {
         } else {
             None
         };
+        // Claimed bricks: a bit each and a list (a count, then up to one entry each).
+        let bricks = if settings.conservative { u64::from(n / CLAIM_BRICK).pow(3) } else { 0 };
+        let brick_bits =
+            compute::storage_buffer(ctx, "vxgi claimed brick bits", (bricks.div_ceil(32) * 4).max(16));
+        let claimed_bricks = compute::storage_buffer(ctx, "vxgi claimed bricks", (4 + bricks * 4).max(16));
         let slot_values: Vec<DispatchSlot> = (0..clips)
             .flat_map(|clip| (0..REGIONS as u32).map(move |region| (clip, region)))
             .flat_map(|(clip, region)| (0..3).map(move |axis| DispatchSlot { axis, clip, region, _pad: 0 }))
@@ -580,6 +602,8 @@ impl Vxgi {
                 compute::texture_entry(7, wgpu::TextureSampleType::Float { filterable: false }),
                 compute::storage_texture_entry(8, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
                 slots.entry(9),
+                compute::storage_buffer_entry(10, false),
+                compute::storage_buffer_entry(11, false),
             ],
         );
         let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
@@ -610,6 +634,8 @@ impl Vxgi {
                     wgpu::BindingResource::TextureView(&direct_view),
                     wgpu::BindingResource::TextureView(&output_view),
                     slots.resource(),
+                    brick_bits.as_entire_binding(),
+                    claimed_bricks.as_entire_binding(),
                 ],
             )
         };
@@ -713,10 +739,38 @@ impl Vxgi {
             voxelize: pipeline("vxgi voxelization", &voxelize_wgsl, "voxelize")?,
             conservative: if settings.conservative {
                 let wgsl = conservative_source();
-                Some([
-                    pipeline("vxgi voxelization", &wgsl, "claim_voxels")?,
-                    pipeline("vxgi voxelization", &wgsl, "resolve_claims")?,
-                ])
+                let defines =
+                    defines.clone().u32("MAX_WORKGROUPS", ctx.limits().max_compute_workgroups_per_dimension);
+                let args_layout = compute::layout(
+                    ctx,
+                    "vxgi resolve arguments",
+                    &[compute::storage_buffer_entry(0, false)],
+                );
+                let resolve_args = ctx.device.create_buffer(
+                    &crate::gpu::BufferBuilder::new("vxgi resolve arguments", 16)
+                        .storage()
+                        .usage(wgpu::BufferUsages::INDIRECT)
+                        .descriptor(),
+                );
+                let args_group = compute::bind_group(
+                    ctx,
+                    "vxgi resolve arguments",
+                    &args_layout,
+                    &[resolve_args.as_entire_binding()],
+                );
+                let pipeline = |entry: &str, layouts: &[&wgpu::BindGroupLayout]| {
+                    compute::pipeline(ctx, "vxgi voxelization", &wgsl, defines.clone(), entry, layouts)
+                };
+                let with_args = [layouts[0], layouts[1], layouts[2], &args_layout];
+                Some(Conservative {
+                    claim: pipeline("claim_voxels", &layouts)?,
+                    arguments: pipeline("resolve_arguments", &with_args)?,
+                    resolve: pipeline("resolve_claims", &layouts)?,
+                    resolve_args,
+                    args_group,
+                    brick_bits,
+                    claimed_bricks,
+                })
             } else {
                 None
             },
@@ -836,18 +890,36 @@ impl Vxgi {
                     let pass = ("vxgi voxelization", &self.voxelize);
                     self.record(e, fc, pass, (&self.inject_group, None), slot_index(k, r, axis), columns);
                 }
-                if let Some([claim, resolve]) = &self.conservative {
-                    let most = fc.ctx.device.limits().max_compute_workgroups_per_dimension;
-                    let groups = workgroups_for(fc.gpu_scene.info.triangle_count, CLAIM_GROUP, most);
-                    let pass = ("vxgi voxelization", claim);
-                    self.record(e, fc, pass, (&self.inject_group, None), slot_index(k, r, 0), groups);
-                    let pass = ("vxgi voxelization", resolve);
-                    let workgroups = self.box_workgroups(k, r);
-                    self.record(e, fc, pass, (&self.inject_group, None), slot_index(k, r, 0), workgroups);
+                if let Some(c) = &self.conservative {
+                    self.record_conservative(e, fc, c, slot_index(k, r, 0));
                 }
             }
         })?;
         Ok(())
+    }
+
+    /// Records conservative voxelisation's passes over the box of dispatch slot `slot`, after its column
+    /// rays: every triangle's claims, then the resolve of the claimed bricks.
+    fn record_conservative(
+        &self,
+        e: &mut wgpu::CommandEncoder,
+        fc: &FrameContext,
+        c: &Conservative,
+        slot: usize,
+    ) {
+        let name = "vxgi voxelization";
+        e.clear_buffer(&c.brick_bits, 0, None);
+        e.clear_buffer(&c.claimed_bricks, 0, Some(4));
+        let most = fc.ctx.limits().max_compute_workgroups_per_dimension;
+        let [x, y, _] = workgroups_for(fc.gpu_scene.info.triangle_count, CLAIM_GROUP, most);
+        // Slices of each workgroup's columns, so that at least CLAIM_WORKGROUPS workgroups share them.
+        let slices = CLAIM_WORKGROUPS.div_ceil((x * y).max(1)).clamp(1, most);
+        self.record(e, fc, (name, &c.claim), (&self.inject_group, None), slot, [x, y, slices]);
+        self.record(e, fc, (name, &c.arguments), (&self.inject_group, Some(&c.args_group)), slot, [1, 1, 1]);
+        let (scene, frame) = (&fc.gpu_scene.bind_group, &fc.frame.bind_group);
+        let mut pass = crate::gpu::dispatch::compute_pass(e, name, &c.resolve, &[scene, frame]);
+        pass.set_bind_group(2, &self.inject_group, &[self.slots.offsets().nth(slot).unwrap_or(0)]);
+        pass.dispatch_workgroups_indirect(&c.resolve_args, 0);
     }
 
     /// Records `pipeline` over the voxels of each (level, region) in `regions` (pass `name`).
@@ -1033,6 +1105,9 @@ impl Technique for Vxgi {
             .as_ref()
             .map_or(0, |s| [&s.albedo, &s.normal, &s.radiance].map(texture_bytes).iter().sum());
         c.insert("vxgi_scroll_scratch_bytes".into(), scratch as f64);
+        // Conservative voxelisation's claimed-brick bits and list.
+        let claims = self.conservative.as_ref().map_or(0, |c| c.brick_bits.size() + c.claimed_bricks.size());
+        c.insert("vxgi_claim_bytes".into(), claims as f64);
         for k in 1..self.settings.clips as usize {
             c.insert(format!("vxgi_clip{k}_voxel_size"), f64::from(self.volume.clips[k][3]));
         }
