@@ -34,8 +34,8 @@ def detail_section(rtgi):
     lines = ["## Voxelisation against triangle count (atrium, detail 1-5)", "",
              f"`rtgi render --scene atrium:detail=D --technique vxgi --set update=every-frame --set "
              f"voxelization=V --size 64x64 --frames {frames}`: GPU time per frame (mean over the frames "
-             "after the first) of the voxelisation (3 × 128² rays through the BVH; conservative: then a "
-             "claim per triangle and a resolve per voxel) and, for scale, of the injection (a direct-light "
+             "after the first) of the voxelisation (3 × 128² rays through the BVH; conservative: then the "
+             "claims of every triangle and a resolve per claimed brick of 4³ voxels) and, for scale, of the injection (a direct-light "
              "estimate per occupied voxel).", "",
              "| detail | triangles | BVH build ms (CPU) | columns: voxelization ms | conservative: "
              "voxelization ms | conservative − columns, ns per triangle | injection ms (conservative) |",
