@@ -492,6 +492,7 @@ warmup = 5
                 "traversal.toml",
                 "vpl-equal-time-quick.toml",
                 "vpl-equal-time.toml",
+                "vxgi-voxelization.toml",
                 "vxgi.toml"
             ]
         );
