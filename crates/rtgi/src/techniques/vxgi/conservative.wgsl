@@ -49,8 +49,8 @@ struct ClaimTriangle {
 // claim set first. The resolve pass runs a workgroup per listed brick (an indirect dispatch) rather
 // than a thread per voxel of the level: most of a level is empty and holds no claim, and reading its
 // voxel words costs more than the claims themselves (lavapipe: 150-200 ms at 128³).
-const BRICK: u32 = 4u;
-const BRICKS: u32 = GRID / BRICK;
+// CLAIM_BRICK (the bricks' edge in voxels) comes from vxgi/mod.rs.
+const BRICKS: u32 = GRID / CLAIM_BRICK;
 
 struct ClaimedBricks {
     count: atomic<u32>,
@@ -162,7 +162,7 @@ fn claim_column(ct: ClaimTriangle, w: u32, level: u32) {
         let distance = abs(dot(unit_normal, centre - ct.a));
         let rank = u32(round(255.0 * (1.0 - saturate(distance / HALF_DIAGONAL))));
         textureAtomicMax(voxel_normal, texel, (rank << CLAIM_INDEX_BITS) | (ct.index + 1u));
-        let brick = vec3u(cell - corner) / BRICK;
+        let brick = vec3u(cell - corner) / CLAIM_BRICK;
         let b = brick.x + BRICKS * (brick.y + BRICKS * brick.z);
         let bit = 1u << (b % 32u);
         if (atomicOr(&brick_bits[b / 32u], bit) & bit) == 0u {
@@ -261,7 +261,7 @@ fn resolve_arguments() {
 // Gives each claimed voxel of the dispatch's box the surface of its claiming triangle nearest its centre
 // (its albedo and authored normal, as the column rays would have), unless an alpha mask cuts the
 // triangle away there. One workgroup per claimed brick.
-@compute @workgroup_size(4, 4, 4)
+@compute @workgroup_size(CLAIM_BRICK, CLAIM_BRICK, CLAIM_BRICK)
 fn resolve_claims(
     @builtin(workgroup_id) group: vec3u,
     @builtin(num_workgroups) groups: vec3u,
@@ -272,7 +272,7 @@ fn resolve_claims(
         return;
     }
     let b = claimed.bricks[slot];
-    let voxel = vec3i(vec3u(b % BRICKS, (b / BRICKS) % BRICKS, b / (BRICKS * BRICKS)) * BRICK + local);
+    let voxel = vec3i(vec3u(b % BRICKS, (b / BRICKS) % BRICKS, b / (BRICKS * BRICKS)) * CLAIM_BRICK + local);
     let box = dispatch_box();
     if any(voxel < box.lo.xyz) || any(voxel >= box.hi.xyz) {
         return;

@@ -84,7 +84,7 @@ const CLAIM_INDEX_BITS: u32 = 24;
 /// Fewest workgroups the claim pass runs: a scene of few triangles has their columns sliced over this
 /// many (each slice sets the triangles up again, which costs little next to their columns).
 const CLAIM_WORKGROUPS: u32 = 256;
-/// Edge in voxels of the bricks whose claims the resolve pass visits (`BRICK` in conservative.wgsl).
+/// Edge in voxels of the bricks whose claims the resolve pass visits.
 const CLAIM_BRICK: u32 = 4;
 const MAX_CLAIMING_TRIANGLES: u32 = (1 << CLAIM_INDEX_BITS) - 1;
 /// A cone sample uses a finer clipmap level only this many of its voxels inside its border: filtering
@@ -378,6 +378,7 @@ impl ShaderSettings {
             .bool("CONSERVATIVE", self.conservative)
             .u32("CLAIM_GROUP", CLAIM_GROUP)
             .u32("CLAIM_INDEX_BITS", CLAIM_INDEX_BITS)
+            .u32("CLAIM_BRICK", CLAIM_BRICK)
     }
 }
 
