@@ -32,6 +32,19 @@ pub fn run() -> anyhow::Result<()> {
     section(&mut text, "Built-in scenes (--scene NAME or NAME:key=value,...):", &scenes);
     text.push('\n');
     section(&mut text, "Techniques (--technique NAME, parameters with --set key=value):", &techniques);
+    text.push('\n');
+    let post = [Entry {
+        name: "motion-blur",
+        description: "non-linear motion blur of any technique's image over --shutter SECONDS: each moving \
+                      pixel's quadratic screen-space curve scattered as lines (post-process)",
+        params: &rtgi::post::motion_blur::MOTION_BLUR_PARAMS,
+        motion: None,
+    }];
+    section(
+        &mut text,
+        "Post-processes (rtgi render --shutter S, parameters with --motion-blur-set key=value):",
+        &post,
+    );
     text.push_str("\nParameters are shown as key=default, then kind and meaning.\n");
 
     match std::io::stdout().lock().write_all(text.as_bytes()) {

@@ -75,6 +75,18 @@ pub struct RenderArgs {
     /// frames are anti-aliased) or a fixed offset `X,Y` in pixels, each in [-0.5, 0.5).
     #[arg(long, default_value = "none", value_name = "MODE")]
     jitter: String,
+    /// Motion blur: the shutter in scene seconds, centred on each frame's time (0: none). Every frame
+    /// is blurred by the non-linear motion blur post-process (see `rtgi list`), or, with
+    /// --shutter-reference, replaced by the brute-force reference.
+    #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
+    shutter: f32,
+    /// Motion blur parameter (see `rtgi list`); repeat for several.
+    #[arg(long = "motion-blur-set", value_name = "KEY=VALUE")]
+    motion_blur_set: Vec<String>,
+    /// Render the still as the brute-force reference of motion blur instead: the mean of N frames at
+    /// times stratified over --shutter, each a fresh frame (with `path`, one sample per pixel each).
+    #[arg(long, value_name = "N")]
+    shutter_reference: Option<u32>,
     /// Also write the render statistics as JSON.
     #[arg(long, value_name = "FILE.json")]
     stats: Option<PathBuf>,
@@ -125,6 +137,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("--accumulate must be at least 1");
     }
     let timing: TimingMode = args.timing.parse().map_err(|e| anyhow!("--timing {e}"))?;
+    let motion_blur = motion_blur_settings(args, sequence.is_some())?;
     let jitter: rtgi::renderer::Jitter = args.jitter.parse().map_err(|e| anyhow!("--jitter: {e}"))?;
     let aovs = args
         .aov
@@ -174,7 +187,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     )?;
     let steps = if sequence.is_some() { args.frames * args.accumulate } else { args.frames };
     let bar = progress_bar(steps);
-    let result = (|| -> anyhow::Result<()> {
+    let result = (|| -> anyhow::Result<Option<rtgi::image::HdrImage>> {
         renderer.set_jitter(jitter)?;
         renderer.set_frame_counter(args.first_frame);
         if let Some(camera) = camera {
@@ -190,6 +203,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             }
         }
         renderer.set_time(args.time)?;
+        if let Some(samples) = args.shutter_reference {
+            return Ok(Some(renderer.render_shutter_reference(args.shutter, samples)?));
+        }
+        renderer.set_motion_blur(motion_blur.clone())?;
         let frame_step = if sequence.is_some() && !args.hold { 1.0 / args.fps } else { 0.0 };
         for frame in 0..args.frames {
             if let Some(pattern) = &sequence {
@@ -212,15 +229,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 bar.set_position(u64::from((frame + 1) * steps / args.frames));
             }
         }
-        Ok(())
+        Ok(None)
     })();
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
-    result?;
+    let reference = result?;
     if sequence.is_none() {
         create_parent(&args.out)?;
-        renderer.read_image()?.write(&args.out, &ToneMap { exposure_ev: args.exposure })?;
+        let image = match reference {
+            Some(image) => image,
+            None => renderer.read_image()?,
+        };
+        image.write(&args.out, &ToneMap { exposure_ev: args.exposure })?;
         write_aovs(&mut renderer, &aovs, None)?;
     }
     let stats = renderer.stats()?;
@@ -244,6 +265,45 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         stats.adapter.name
     );
     Ok(())
+}
+
+/// The motion blur asked for by --shutter and --motion-blur-set (`None`: off, or the reference).
+fn motion_blur_settings(
+    args: &RenderArgs,
+    sequence: bool,
+) -> anyhow::Result<Option<rtgi::post::motion_blur::MotionBlurSettings>> {
+    if !(args.shutter.is_finite() && args.shutter >= 0.0) {
+        bail!("--shutter '{}' must be a finite, non-negative number of seconds", args.shutter);
+    }
+    let settings = args
+        .motion_blur_set
+        .iter()
+        .map(|s| parse_setting(s).map_err(|e| anyhow!("--motion-blur-set {e}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if let Some(samples) = args.shutter_reference {
+        if samples == 0 {
+            bail!("--shutter-reference must be at least 1 frame");
+        }
+        if args.shutter == 0.0 {
+            bail!("--shutter-reference needs a --shutter above 0 seconds");
+        }
+        if sequence || args.frames > 1 {
+            bail!("--shutter-reference renders one still: it does not combine with --frames or a sequence");
+        }
+        if !settings.is_empty() {
+            bail!("--motion-blur-set sets the post-process, which --shutter-reference replaces");
+        }
+        return Ok(None);
+    }
+    if args.shutter == 0.0 {
+        if !settings.is_empty() {
+            bail!("--motion-blur-set needs a --shutter above 0 seconds");
+        }
+        return Ok(None);
+    }
+    let settings = rtgi::post::motion_blur::MotionBlurSettings::new(args.shutter, &settings)
+        .map_err(|e| anyhow!("--motion-blur-set {e}"))?;
+    Ok(Some(settings))
 }
 
 /// Writes each requested AOV; `frame` numbers the files of a sequence.

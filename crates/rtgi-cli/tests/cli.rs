@@ -47,6 +47,10 @@ fn list_prints_both_sections_and_every_entry() {
     for technique in rtgi::techniques::registry() {
         assert!(text.contains(technique.name), "{} missing:\n{text}", technique.name);
     }
+    assert!(text.contains("Post-processes") && text.contains("motion-blur"), "{text}");
+    for p in rtgi::post::motion_blur::MOTION_BLUR_PARAMS {
+        assert!(text.contains(&format!("{}={}", p.name, p.default)), "{}:\n{text}", p.name);
+    }
 }
 
 #[test]
@@ -90,6 +94,25 @@ fn bad_jitter_is_an_error() {
     assert!(line.contains("--jitter") && line.contains("halton"), "{line}");
     let line = expect_error(&rtgi(&["render", "--size", "16x16", "--jitter", "0.5,0", "--out", "j.exr"]));
     assert!(line.contains("[-0.5, 0.5)"), "{line}");
+}
+
+#[test]
+fn bad_motion_blur_settings_are_errors() {
+    for (args, expected) in [
+        (vec!["--shutter=-0.1"], "--shutter"),
+        (vec!["--shutter", "inf"], "--shutter"),
+        (vec!["--shutter", "0.1", "--motion-blur-set", "segments=0"], "segments"),
+        (vec!["--shutter", "0.1", "--motion-blur-set", "blur=1"], "background_weight"),
+        (vec!["--motion-blur-set", "sigma=1"], "--shutter"),
+        (vec!["--shutter-reference", "8"], "--shutter"),
+        (vec!["--shutter", "0.1", "--shutter-reference", "0"], "at least 1"),
+        (vec!["--shutter", "0.1", "--shutter-reference", "8", "--frames", "2"], "--frames"),
+    ] {
+        let mut argv = vec!["render", "--size", "16x16", "--out", "m.exr"];
+        argv.extend(args.iter().copied());
+        let line = expect_error(&rtgi(&argv));
+        assert!(line.contains(expected), "{args:?}: {line}");
+    }
 }
 
 #[test]

@@ -13,6 +13,7 @@ pub mod image;
 pub mod metrics;
 pub mod montage;
 pub mod params;
+pub mod post;
 pub mod reference;
 pub mod render;
 pub mod renderer;

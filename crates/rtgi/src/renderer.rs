@@ -34,6 +34,7 @@ use crate::gpu::{
 };
 use crate::image::HdrImage;
 use crate::params::ParamValues;
+use crate::post::motion_blur::{MotionBlur, MotionBlurSettings, ShutterPose};
 use crate::scene::{Camera, Environment, Scene};
 use crate::techniques::{
     self, FrameContext, Measured, NextPose, RenderError, SceneChange, Technique, TechniqueInfo,
@@ -171,6 +172,8 @@ pub struct RenderStats {
     pub counters: BTreeMap<String, f64>,
     /// What the GPU upload had to change (e.g. textures downsampled to the array size).
     pub warnings: Vec<String>,
+    /// The motion blur post-process's shutter and parameters, when it was on.
+    pub motion_blur: Option<BTreeMap<String, String>>,
 }
 
 /// Memory after a number of frames.
@@ -296,6 +299,10 @@ pub struct Renderer {
     shader_compilations_at_start: u64,
     setup_ms: f64,
     memory: Vec<MemorySample>,
+    /// The motion blur post-process, when on, and the `frame_builds` count it was built for (it binds
+    /// the output and the frame's layouts, so it follows their rebuilds).
+    motion_blur: Option<(MotionBlur, u32)>,
+    motion_blur_settings: Option<MotionBlurSettings>,
 }
 
 impl Renderer {
@@ -358,6 +365,8 @@ impl Renderer {
             shader_compilations_at_start,
             setup_ms: 0.0,
             memory: Vec::new(),
+            motion_blur: None,
+            motion_blur_settings: None,
         };
         renderer.setup_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(renderer)
@@ -748,6 +757,95 @@ impl Renderer {
         })?
     }
 
+    /// Blurs every frame from now on over `settings.shutter` seconds around its time with the
+    /// non-linear motion blur post-process ([`crate::post::motion_blur`]); `None` turns it off.
+    /// [`Self::output`] and [`Self::read_image`] then give the blurred image.
+    pub fn set_motion_blur(&mut self, settings: Option<MotionBlurSettings>) -> Result<(), RenderError> {
+        self.motion_blur = None;
+        self.motion_blur_settings = settings;
+        self.ensure_motion_blur()
+    }
+
+    /// Builds the motion blur post-process if it is on and not built for the current frame resources.
+    fn ensure_motion_blur(&mut self) -> Result<(), RenderError> {
+        let Some(settings) = &self.motion_blur_settings else {
+            self.motion_blur = None;
+            return Ok(());
+        };
+        let builds = self.counters.frame_builds;
+        if self.motion_blur.as_ref().is_some_and(|(_, built_for)| *built_for == builds) {
+            return Ok(());
+        }
+        let ctx = self.ctx.clone();
+        let blur = ctx.checked("creating the motion blur", || {
+            MotionBlur::new(&ctx, &self.gpu_scene, &self.frame, &self.output, settings.clone())
+        })??;
+        self.motion_blur = Some((blur, builds));
+        Ok(())
+    }
+
+    /// Camera and meshes at the opening and closing of a `shutter` centred on the current time,
+    /// relative to the current pose.
+    fn shutter_pose(&self, shutter: f32) -> ShutterPose {
+        let (w, h) = self.size();
+        let aspect = w as f32 / h as f32;
+        let meshes = self.posed.mesh_transforms.len();
+        let at = |t: f32| -> (Mat4, Vec<Mat4>) {
+            if !self.source.is_animated() {
+                return (self.camera.view_projection(aspect), vec![Mat4::IDENTITY; meshes]);
+            }
+            let pose = self.source.pose_at(t);
+            let camera = if self.camera_override { self.camera } else { pose.camera };
+            let motion = pose
+                .mesh_transforms
+                .iter()
+                .zip(&self.posed.mesh_transforms)
+                .map(|(then, now)| if then == now { Mat4::IDENTITY } else { *then * now.inverse() })
+                .collect();
+            (camera.view_projection(aspect), motion)
+        };
+        let (open_view_proj, open) = at(self.time - 0.5 * shutter);
+        let (close_view_proj, close) = at(self.time + 0.5 * shutter);
+        ShutterPose {
+            open_view_proj,
+            close_view_proj,
+            mesh_motion: open.into_iter().zip(close).map(|(o, c)| [o, c]).collect(),
+        }
+    }
+
+    /// The brute-force reference of motion blur: the mean of `samples` frames at times stratified over
+    /// a `shutter` centred on the current time (sample i at t + ((i + ½) / samples − ½) · shutter), each
+    /// a fresh frame (history cut; `path` gives each one sample per pixel, so the mean also converges
+    /// its noise). The motion blur post-process is off for these frames; the time is restored after.
+    pub fn render_shutter_reference(&mut self, shutter: f32, samples: u32) -> Result<HdrImage, RenderError> {
+        if !(shutter.is_finite() && shutter >= 0.0) || samples == 0 {
+            return Err(RenderError::InvalidSettings(format!(
+                "shutter reference: shutter {shutter} s must be finite and not negative, samples {samples} at                  least 1"
+            )));
+        }
+        let blur = self.motion_blur_settings.take();
+        self.motion_blur = None;
+        let t = self.time;
+        let (w, h) = self.size();
+        let mut sum = vec![0.0f64; (w * h * 3) as usize];
+        let result = (|| -> Result<(), RenderError> {
+            for i in 0..samples {
+                self.set_time(t + ((i as f32 + 0.5) / samples as f32 - 0.5) * shutter)?;
+                self.cut();
+                self.step()?;
+                for (s, v) in sum.iter_mut().zip(self.read_image()?.rgb) {
+                    *s += f64::from(v);
+                }
+            }
+            Ok(())
+        })();
+        self.motion_blur_settings = blur;
+        self.set_time(t)?;
+        result?;
+        let rgb = sum.iter().map(|&s| (s / f64::from(samples)) as f32).collect();
+        Ok(HdrImage { width: w, height: h, rgb })
+    }
+
     /// Per mesh, the matrix from its world position in this frame to the previous frame's: the uploaded
     /// geometry is posed at the current transform T, so the previous position is T_prev · T⁻¹ · p.
     fn mesh_motion(&self) -> Vec<Mat4> {
@@ -783,11 +881,13 @@ impl Renderer {
     pub fn step(&mut self) -> Result<(), RenderError> {
         let view = self.next_view();
         let ctx = self.ctx.clone();
+        self.ensure_motion_blur()?;
+        let shutter = self.motion_blur.as_ref().map(|(m, _)| self.shutter_pose(m.settings().shutter));
         ctx.checked("rendering", || -> Result<(), RenderError> {
             self.frame.set_view(&ctx, &view, seed_of(&self.params));
             self.frame.set_mesh_motion(&ctx, &self.mesh_motion())?;
             self.profiler.begin_frame(&ctx);
-            if self.info.needs.gbuffer {
+            if self.info.needs.gbuffer || shutter.is_some() {
                 self.frame.render_inputs(&ctx, &self.gpu_scene, &mut self.profiler)?;
             }
             let next = self.next_pose(&view);
@@ -800,6 +900,9 @@ impl Renderer {
                 prediction_held: self.prediction_held(&view),
             };
             self.technique.render_frame(&fc, &mut self.profiler)?;
+            if let (Some((blur, _)), Some(pose)) = (self.motion_blur.as_mut(), shutter.as_ref()) {
+                blur.record(&ctx, &self.gpu_scene, &self.frame, pose, &mut self.profiler)?;
+            }
             self.predicted_change_step =
                 next.as_ref().filter(|n| self.predicts_change(n)).map(|n| n.time_step);
             self.profiler.end_frame(&ctx)?;
@@ -824,14 +927,19 @@ impl Renderer {
     }
 
     /// The radiance texture of the last frame (rgba32float, the size of the frame), for display on the
-    /// GPU ([`crate::gpu::display::Display`]) without a readback. Replaced by a resize.
+    /// GPU ([`crate::gpu::display::Display`]) without a readback: the technique's output, or its
+    /// motion-blurred copy when motion blur is on. Replaced by a resize.
     pub fn output(&self) -> &wgpu::Texture {
-        &self.output
+        match &self.motion_blur {
+            Some((blur, _)) => blur.blurred(),
+            None => &self.output,
+        }
     }
 
-    /// The radiance of the last frame (the technique's output: accumulated where it accumulates).
+    /// The radiance of the last frame (the technique's output: accumulated where it accumulates;
+    /// motion-blurred when motion blur is on).
     pub fn read_image(&self) -> Result<HdrImage, RenderError> {
-        let texels = readback::read_texture(&self.ctx, &self.output, 16)?;
+        let texels = readback::read_texture(&self.ctx, self.output(), 16)?;
         Ok(rgba_to_image(self.size(), bytemuck::cast_slice(&texels), |p| [p[0], p[1], p[2]]))
     }
 
@@ -910,6 +1018,14 @@ impl Renderer {
         }
         let mut warnings: Vec<String> = self.gpu_scene.warnings.clone();
         warnings.extend(self.technique.warnings());
+        if let Some((blur, _)) = &self.motion_blur {
+            counters.insert("motion_blur_bytes".into(), blur.bytes() as f64);
+        }
+        let motion_blur = self.motion_blur_settings.as_ref().map(|m| {
+            let mut settings = m.params.to_map();
+            settings.insert("shutter".into(), m.shutter.to_string());
+            settings
+        });
         Ok(RenderStats {
             scene: self.source.name.clone(),
             technique: self.info.name.to_string(),
@@ -935,6 +1051,7 @@ impl Renderer {
             primary,
             counters,
             warnings,
+            motion_blur,
         })
     }
 }

@@ -1,0 +1,462 @@
+//! Non-linear motion blur (seed 003, article 1: "High Performance Non-linear Motion Blur", report
+//! `../shared/research/003-distribution-effects-ddgi.md` §1) as a post-process of any technique.
+//!
+//! The shutter is open from t − shutter/2 to t + shutter/2 around the frame's time t. Every pixel's
+//! surface point is followed to where it is at the opening and at the closing (its mesh's animation and
+//! the camera's, evaluated exactly from the scene's animation: the paper's two extra position buffers,
+//! one of which needs the next frame's pose); a quadratic Bézier through the three screen positions is
+//! cut into `segments` lines and rasterised with additive blending (the colour of the pixel times a
+//! Gaussian of the curve parameter, and the weight), depth-tested against the frame's visible surfaces;
+//! a resolve divides, keeping each pixel's own radiance with the constant weight `background_weight`
+//! (`motion_blur.wgsl`).
+//!
+//! What the paper states and this keeps: cost independent of the scene's triangles, curved motion of any
+//! length, static occluders hiding the curves behind them, and the unblurred image staying visible
+//! under the streaks (the background behind a moving object is unknown to a post-process). The
+//! brute-force reference it is measured against is [`crate::renderer::Renderer::render_shutter_reference`].
+
+#[cfg(test)]
+mod tests;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+use wgpu::util::DeviceExt;
+
+use crate::frame::{FrameResources, OUTPUT_FORMAT};
+use crate::gpu::resources::{buffer_layout_entry, storage_texture_layout_entry, texture_layout_entry};
+use crate::gpu::{BufferBuilder, GpuContext, GpuScene, Profiler, TextureBuilder};
+use crate::params::{ParamKind, ParamSpec, ParamValues};
+use crate::shaders::{self, Defines};
+use crate::techniques::{RenderError, compute};
+
+pub const SOURCE: &str = include_str!("motion_blur.wgsl");
+
+/// The post-process's parameters (`rtgi render --motion-blur-set KEY=VALUE`). Defaults are the
+/// paper's {w_b, Δ, σ} = {5, 11 points, 2}.
+pub const MOTION_BLUR_PARAMS: [ParamSpec; 5] = [
+    ParamSpec {
+        name: "segments",
+        kind: ParamKind::Int { min: 1, max: 64 },
+        default: "10",
+        doc: "lines each pixel's curve is cut into (the paper's Δ = 11 points)",
+    },
+    ParamSpec {
+        name: "sigma",
+        kind: ParamKind::Float { min: 0.01, max: 100.0 },
+        default: "2",
+        doc: "σ of the Gaussian weight over the curve parameter s in [0, 1], centred at the frame's time",
+    },
+    ParamSpec {
+        name: "background_weight",
+        kind: ParamKind::Float { min: 0.001, max: 1e6 },
+        default: "5",
+        doc: "w_b, the weight of each pixel's own radiance against the curves' weights (> 0)",
+    },
+    ParamSpec {
+        name: "min_motion",
+        kind: ParamKind::Float { min: 0.0, max: 1e4 },
+        default: "0.5",
+        doc: "pixels whose surface moves less than this many pixels towards both ends of the shutter are \
+              not scattered",
+    },
+    ParamSpec {
+        name: "depth_tolerance",
+        kind: ParamKind::Float { min: 0.0, max: 10.0 },
+        default: "0.02",
+        doc: "a curve is hidden where it passes behind the visible surface by more than this fraction of \
+              the surface's view depth",
+    },
+];
+
+/// How a frame is blurred: the shutter and the post-process's parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotionBlurSettings {
+    /// Scene seconds the shutter is open, centred on the frame's time.
+    pub shutter: f32,
+    pub params: ParamValues,
+}
+
+impl MotionBlurSettings {
+    /// Validates `shutter` and `key=value` settings against [`MOTION_BLUR_PARAMS`].
+    pub fn new(shutter: f32, settings: &[(String, String)]) -> Result<Self, String> {
+        if !(shutter.is_finite() && shutter > 0.0) {
+            return Err(format!("shutter {shutter} must be a positive, finite number of seconds"));
+        }
+        let params = ParamValues::from_settings("motion blur", &MOTION_BLUR_PARAMS, settings)?;
+        Ok(MotionBlurSettings { shutter, params })
+    }
+
+    fn segments(&self) -> u32 {
+        self.params.int("segments") as u32
+    }
+}
+
+/// `MotionBlurUniforms` in `motion_blur.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct MotionBlurUniforms {
+    pub open_view_proj: [[f32; 4]; 4],
+    pub close_view_proj: [[f32; 4]; 4],
+    pub min_motion: f32,
+    pub sigma: f32,
+    pub background_weight: f32,
+    pub depth_tolerance: f32,
+}
+
+/// Where things are when the shutter opens and closes, relative to the frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShutterPose {
+    pub open_view_proj: Mat4,
+    pub close_view_proj: Mat4,
+    /// Per mesh: the matrix from its world position in the frame to the opening's, and to the closing's.
+    pub mesh_motion: Vec<[Mat4; 2]>,
+}
+
+/// The quadratic Bézier through `open`, `now` and `close` at s = 0, ½ and 1: its control points
+/// (the CPU twin of `pixel_curve` in `motion_blur.wgsl`).
+pub fn curve_control_points(open: [f32; 2], now: [f32; 2], close: [f32; 2]) -> [[f32; 2]; 3] {
+    let b1 = std::array::from_fn(|i| 2.0 * now[i] - 0.5 * (open[i] + close[i]));
+    [open, b1, close]
+}
+
+/// B(s) of control points `b` (the CPU twin of `curve_at`).
+pub fn curve_at(b: &[[f32; 2]; 3], s: f32) -> [f32; 2] {
+    let w = [(1.0 - s) * (1.0 - s), 2.0 * (1.0 - s) * s, s * s];
+    std::array::from_fn(|i| w[0] * b[0][i] + w[1] * b[1][i] + w[2] * b[2][i])
+}
+
+/// The post-process for one output size.
+pub struct MotionBlur {
+    settings: MotionBlurSettings,
+    width: u32,
+    height: u32,
+    uniform_buffer: wgpu::Buffer,
+    mesh_buffer: wgpu::Buffer,
+    mesh_written: Vec<[Mat4; 2]>,
+    count_pipeline: wgpu::ComputePipeline,
+    offset_pipeline: wgpu::ComputePipeline,
+    list_pipeline: wgpu::ComputePipeline,
+    list_group: wgpu::BindGroup,
+    /// Per tile its moving pixels' count, then their first index; the list; the draw's arguments.
+    tile_moving: wgpu::Buffer,
+    moving_pixels: wgpu::Buffer,
+    draw_args: wgpu::Buffer,
+    draw_pipeline: wgpu::RenderPipeline,
+    draw_group: wgpu::BindGroup,
+    resolve_pipeline: wgpu::ComputePipeline,
+    resolve_group: wgpu::BindGroup,
+    accumulation: wgpu::Texture,
+    blurred: wgpu::Texture,
+}
+
+impl MotionBlur {
+    /// Blurs `radiance` (the technique's output, `frame`'s size) for a scene of `meshes` meshes.
+    pub fn new(
+        ctx: &GpuContext,
+        gpu_scene: &GpuScene,
+        frame: &FrameResources,
+        radiance: &wgpu::Texture,
+        settings: MotionBlurSettings,
+    ) -> Result<Self, RenderError> {
+        let (width, height) = (frame.width, frame.height);
+        let segments = settings.segments();
+        let vertices = u64::from(width) * u64::from(height) * 2 * u64::from(segments);
+        u32::try_from(vertices).map_err(|_| {
+            RenderError::InvalidSettings(format!(
+                "motion blur: {width}x{height} pixels with {segments} segments need {vertices} vertices, more \
+                 than a draw can hold (2^32 - 1): fewer segments or a smaller image"
+            ))
+        })?;
+        // Blending rgba32float needs an optional feature; half floats hold the sums otherwise.
+        let accumulation_format = if ctx.device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
+            wgpu::TextureFormat::Rgba32Float
+        } else {
+            wgpu::TextureFormat::Rgba16Float
+        };
+        let accumulation = TextureBuilder::d2("motion blur accumulation", width, height, accumulation_format)
+            .render()
+            .sampled()
+            .build(ctx)?;
+        let blurred = TextureBuilder::d2("motion blurred radiance", width, height, OUTPUT_FORMAT)
+            .storage()
+            .sampled()
+            .copy()
+            .build(ctx)?;
+        let meshes = gpu_scene.mesh_ranges.len().max(1);
+        let uniform_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("motion blur uniforms"),
+            size: size_of::<MotionBlurUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let identity = vec![[Mat4::IDENTITY; 2]; meshes];
+        let tiles = u64::from(width.div_ceil(compute::TILE)) * u64::from(height.div_ceil(compute::TILE));
+        let tile_moving = BufferBuilder::new("motion blur tiles", tiles * 4).storage().build(ctx)?;
+        let pixels = u64::from(width) * u64::from(height);
+        let moving_pixels =
+            BufferBuilder::new("motion blur moving pixels", pixels * 4).storage().copy().build(ctx)?;
+        let draw_args = BufferBuilder::new("motion blur draw", 16).storage().indirect().build(ctx)?;
+        let mesh_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("motion blur mesh motion"),
+            contents: bytemuck::cast_slice(&identity),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
+
+        let float = wgpu::TextureSampleType::Float { filterable: false };
+        let d2 = wgpu::TextureViewDimension::D2;
+        let draw_stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let draw_layout = compute::layout(
+            ctx,
+            "motion blur curves",
+            &[
+                buffer_layout_entry(0, draw_stages, wgpu::BufferBindingType::Uniform),
+                buffer_layout_entry(
+                    1,
+                    wgpu::ShaderStages::VERTEX,
+                    wgpu::BufferBindingType::Storage { read_only: true },
+                ),
+                wgpu::BindGroupLayoutEntry {
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ..texture_layout_entry(2, float, d2)
+                },
+                buffer_layout_entry(
+                    8,
+                    wgpu::ShaderStages::VERTEX,
+                    wgpu::BufferBindingType::Storage { read_only: true },
+                ),
+            ],
+        );
+        let list_layout = compute::layout(
+            ctx,
+            "motion blur moving pixels",
+            &[
+                compute::uniform_entry(0),
+                compute::storage_buffer_entry(1, true),
+                compute::storage_buffer_entry(5, false),
+                compute::storage_buffer_entry(6, false),
+                compute::storage_buffer_entry(7, false),
+            ],
+        );
+        let resolve_layout = compute::layout(
+            ctx,
+            "motion blur resolve",
+            &[
+                compute::uniform_entry(0),
+                texture_layout_entry(2, float, d2),
+                texture_layout_entry(3, float, d2),
+                storage_texture_layout_entry(4, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly, d2),
+            ],
+        );
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let (radiance_view, accumulation_view, blurred_view) =
+            (view(radiance), view(&accumulation), view(&blurred));
+        let entry = |binding, resource| wgpu::BindGroupEntry { binding, resource };
+        let draw_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("motion blur curves"),
+            layout: &draw_layout,
+            entries: &[
+                entry(0, uniform_buffer.as_entire_binding()),
+                entry(1, mesh_buffer.as_entire_binding()),
+                entry(2, wgpu::BindingResource::TextureView(&radiance_view)),
+                entry(8, moving_pixels.as_entire_binding()),
+            ],
+        });
+        let list_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("motion blur moving pixels"),
+            layout: &list_layout,
+            entries: &[
+                entry(0, uniform_buffer.as_entire_binding()),
+                entry(1, mesh_buffer.as_entire_binding()),
+                entry(5, tile_moving.as_entire_binding()),
+                entry(6, moving_pixels.as_entire_binding()),
+                entry(7, draw_args.as_entire_binding()),
+            ],
+        });
+        let resolve_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("motion blur resolve"),
+            layout: &resolve_layout,
+            entries: &[
+                entry(0, uniform_buffer.as_entire_binding()),
+                entry(2, wgpu::BindingResource::TextureView(&radiance_view)),
+                entry(3, wgpu::BindingResource::TextureView(&accumulation_view)),
+                entry(4, wgpu::BindingResource::TextureView(&blurred_view)),
+            ],
+        });
+
+        let defines = Defines::new().u32("SEGMENTS", segments);
+        let resolve_pipeline = compute::pipeline(
+            ctx,
+            "motion blur resolve",
+            SOURCE,
+            defines.clone(),
+            "resolve",
+            &[&gpu_scene.bind_group_layout, &frame.bind_group_layout, &resolve_layout],
+        )?;
+        let list_layouts = [&gpu_scene.bind_group_layout, &frame.bind_group_layout, &list_layout];
+        let list = |entry| {
+            compute::pipeline(ctx, "motion blur moving pixels", SOURCE, defines.clone(), entry, &list_layouts)
+        };
+        let (count_pipeline, offset_pipeline, list_pipeline) =
+            (list("count_moving")?, list("offset_tiles")?, list("list_moving")?);
+        let module =
+            shaders::create_module(ctx, "motion blur curves", SOURCE, &defines.u32("TILE", compute::TILE))?;
+        let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("motion blur curves"),
+            bind_group_layouts: &[
+                Some(&gpu_scene.bind_group_layout),
+                Some(&frame.bind_group_layout),
+                Some(&draw_layout),
+            ],
+            immediate_size: 0,
+        });
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let draw_pipeline = ctx.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("motion blur curves"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_curve"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::LineList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_curve"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: accumulation_format,
+                    blend: Some(wgpu::BlendState { color: add, alpha: add }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Ok(MotionBlur {
+            settings,
+            width,
+            height,
+            uniform_buffer,
+            mesh_buffer,
+            mesh_written: identity,
+            count_pipeline,
+            offset_pipeline,
+            list_pipeline,
+            list_group,
+            tile_moving,
+            moving_pixels,
+            draw_args,
+            draw_pipeline,
+            draw_group,
+            resolve_pipeline,
+            resolve_group,
+            accumulation,
+            blurred,
+        })
+    }
+
+    pub fn settings(&self) -> &MotionBlurSettings {
+        &self.settings
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// The blurred radiance (rgba32float), written by [`Self::record`].
+    pub fn blurred(&self) -> &wgpu::Texture {
+        &self.blurred
+    }
+
+    /// Bytes of the accumulation target, the blurred image and the list of moving pixels.
+    pub fn bytes(&self) -> u64 {
+        let texels = u64::from(self.width) * u64::from(self.height);
+        let accumulation = match self.accumulation.format() {
+            wgpu::TextureFormat::Rgba32Float => 16,
+            _ => 8,
+        };
+        texels * (accumulation + 16)
+            + self.moving_pixels.size()
+            + self.tile_moving.size()
+            + self.draw_args.size()
+    }
+
+    /// Records the passes "motion blur curves" and "motion blur resolve" for the frame whose G-buffer is
+    /// in `frame` and whose technique wrote the radiance this was created with.
+    pub fn record(
+        &mut self,
+        ctx: &GpuContext,
+        gpu_scene: &GpuScene,
+        frame: &FrameResources,
+        pose: &ShutterPose,
+        profiler: &mut Profiler,
+    ) -> Result<(), RenderError> {
+        let p = &self.settings.params;
+        let uniforms = MotionBlurUniforms {
+            open_view_proj: pose.open_view_proj.to_cols_array_2d(),
+            close_view_proj: pose.close_view_proj.to_cols_array_2d(),
+            min_motion: p.float("min_motion") as f32,
+            sigma: p.float("sigma") as f32,
+            background_weight: p.float("background_weight") as f32,
+            depth_tolerance: p.float("depth_tolerance") as f32,
+        };
+        ctx.queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&uniforms));
+        // A static scene writes the meshes' matrices once.
+        if !pose.mesh_motion.is_empty() && pose.mesh_motion != self.mesh_written {
+            if pose.mesh_motion.len() != self.mesh_written.len() {
+                return Err(RenderError::InvalidSettings(format!(
+                    "motion blur: {} mesh motions for {} meshes",
+                    pose.mesh_motion.len(),
+                    self.mesh_written.len()
+                )));
+            }
+            ctx.queue.write_buffer(&self.mesh_buffer, 0, bytemuck::cast_slice(&pose.mesh_motion));
+            self.mesh_written.clone_from(&pose.mesh_motion);
+        }
+        let accumulation_view = self.accumulation.create_view(&Default::default());
+        let groups = [&gpu_scene.bind_group, &frame.bind_group, &self.list_group];
+        profiler.pass(ctx, "motion blur moving pixels", |encoder| {
+            let label = "motion blur moving pixels";
+            compute::dispatch_pixels(encoder, label, &self.count_pipeline, &groups, self.width, self.height);
+            compute::dispatch(encoder, label, &self.offset_pipeline, &groups, [1, 1, 1]);
+            compute::dispatch_pixels(encoder, label, &self.list_pipeline, &groups, self.width, self.height);
+        })?;
+        profiler.pass(ctx, "motion blur curves", |encoder| {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("motion blur curves"),
+                color_attachments: &[crate::frame::cleared_target(&accumulation_view)],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.draw_pipeline);
+            pass.set_bind_group(0, &gpu_scene.bind_group, &[]);
+            pass.set_bind_group(1, &frame.bind_group, &[]);
+            pass.set_bind_group(2, &self.draw_group, &[]);
+            pass.draw_indirect(&self.draw_args, 0);
+        })?;
+        profiler.pass(ctx, "motion blur resolve", |encoder| {
+            compute::dispatch_pixels(
+                encoder,
+                "motion blur resolve",
+                &self.resolve_pipeline,
+                &[&gpu_scene.bind_group, &frame.bind_group, &self.resolve_group],
+                self.width,
+                self.height,
+            );
+        })?;
+        Ok(())
+    }
+}
