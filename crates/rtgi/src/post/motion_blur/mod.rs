@@ -12,8 +12,9 @@
 //!
 //! What the paper states and this keeps: cost independent of the scene's triangles, curved motion of any
 //! length, static occluders hiding the curves behind them, and the unblurred image staying visible
-//! under the streaks (the background behind a moving object is unknown to a post-process). The
-//! brute-force reference it is measured against is [`crate::renderer::Renderer::render_shutter_reference`].
+//! under the streaks (the background behind a moving object is unknown to a post-process).
+//! `method=linear` is the baseline the paper measures against: a gather along one straight motion
+//! vector per pixel (McGuire et al. 2012). The brute-force reference it is measured against is [`crate::renderer::Renderer::render_shutter_reference`].
 
 #[cfg(test)]
 mod tests;
@@ -33,7 +34,28 @@ pub const SOURCE: &str = include_str!("motion_blur.wgsl");
 
 /// The post-process's parameters (`rtgi render --motion-blur-set KEY=VALUE`). Defaults are the
 /// paper's {w_b, Δ, σ} = {5, 11 points, 2}.
-pub const MOTION_BLUR_PARAMS: [ParamSpec; 5] = [
+pub const MOTION_BLUR_PARAMS: [ParamSpec; 8] = [
+    ParamSpec {
+        name: "method",
+        kind: ParamKind::Choice(&["curves", "linear"]),
+        default: "curves",
+        doc: "curves: the paper's scatter of quadratic curves; linear: the baseline it compares with, a gather \
+              along one straight motion vector per pixel (McGuire et al. 2012: tile and neighbourhood maximum \
+              velocities, depth-weighted taps)",
+    },
+    ParamSpec {
+        name: "max_radius",
+        kind: ParamKind::Int { min: 1, max: 256 },
+        default: "20",
+        doc: "linear: the longest blur in pixels towards either end of the shutter, and the edge of its \
+              velocity tiles",
+    },
+    ParamSpec {
+        name: "samples",
+        kind: ParamKind::Int { min: 1, max: 64 },
+        default: "15",
+        doc: "linear: taps along each pixel's neighbourhood velocity",
+    },
     ParamSpec {
         name: "segments",
         kind: ParamKind::Int { min: 1, max: 64 },
@@ -89,6 +111,14 @@ impl MotionBlurSettings {
     fn segments(&self) -> u32 {
         self.params.int("segments") as u32
     }
+
+    fn defines(&self) -> Defines {
+        let p = &self.params;
+        Defines::new()
+            .u32("SEGMENTS", self.segments())
+            .u32("MAX_RADIUS", p.int("max_radius") as u32)
+            .u32("SAMPLES", p.int("samples") as u32)
+    }
 }
 
 /// `MotionBlurUniforms` in `motion_blur.wgsl`.
@@ -125,14 +155,8 @@ pub fn curve_at(b: &[[f32; 2]; 3], s: f32) -> [f32; 2] {
     std::array::from_fn(|i| w[0] * b[0][i] + w[1] * b[1][i] + w[2] * b[2][i])
 }
 
-/// The post-process for one output size.
-pub struct MotionBlur {
-    settings: MotionBlurSettings,
-    width: u32,
-    height: u32,
-    uniform_buffer: wgpu::Buffer,
-    mesh_buffer: wgpu::Buffer,
-    mesh_written: Vec<[Mat4; 2]>,
+/// The scatter of curves: moving pixels listed, their curves drawn, the sums resolved.
+struct Curves {
     count_pipeline: wgpu::ComputePipeline,
     offset_pipeline: wgpu::ComputePipeline,
     list_pipeline: wgpu::ComputePipeline,
@@ -146,20 +170,81 @@ pub struct MotionBlur {
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_group: wgpu::BindGroup,
     accumulation: wgpu::Texture,
-    blurred: wgpu::Texture,
 }
 
-impl MotionBlur {
-    /// Blurs `radiance` (the technique's output, `frame`'s size) for a scene of `meshes` meshes.
-    pub fn new(
-        ctx: &GpuContext,
-        gpu_scene: &GpuScene,
-        frame: &FrameResources,
-        radiance: &wgpu::Texture,
-        settings: MotionBlurSettings,
-    ) -> Result<Self, RenderError> {
-        let (width, height) = (frame.width, frame.height);
-        let segments = settings.segments();
+/// The linear gather: velocities, tile maxima, taps.
+struct Linear {
+    velocity_pipeline: wgpu::ComputePipeline,
+    velocity_group: wgpu::BindGroup,
+    tile_max_pipeline: wgpu::ComputePipeline,
+    neighbour_max_pipeline: wgpu::ComputePipeline,
+    tiles_group: wgpu::BindGroup,
+    gather_pipeline: wgpu::ComputePipeline,
+    gather_group: wgpu::BindGroup,
+    tiles: (u32, u32),
+    velocity: wgpu::Texture,
+    tile_max: wgpu::Buffer,
+    neighbour_max: wgpu::Buffer,
+}
+
+enum Method {
+    Curves(Curves),
+    Linear(Linear),
+}
+
+/// What both methods bind: the uniforms, the meshes' motion, the radiance and the blurred image.
+struct Shared<'a> {
+    ctx: &'a GpuContext,
+    gpu_scene: &'a GpuScene,
+    frame: &'a FrameResources,
+    uniform_buffer: &'a wgpu::Buffer,
+    mesh_buffer: &'a wgpu::Buffer,
+    radiance: wgpu::TextureView,
+    blurred: wgpu::TextureView,
+    defines: Defines,
+}
+
+impl Shared<'_> {
+    fn compute(
+        &self,
+        entry: &str,
+        layout: &wgpu::BindGroupLayout,
+    ) -> Result<wgpu::ComputePipeline, RenderError> {
+        let layouts = [&self.gpu_scene.bind_group_layout, &self.frame.bind_group_layout, layout];
+        Ok(compute::pipeline(
+            self.ctx,
+            &format!("motion blur {entry}"),
+            SOURCE,
+            self.defines.clone(),
+            entry,
+            &layouts,
+        )?)
+    }
+
+    fn group(
+        &self,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        entries: &[(u32, wgpu::BindingResource)],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = entries
+            .iter()
+            .map(|(binding, resource)| wgpu::BindGroupEntry { binding: *binding, resource: resource.clone() })
+            .collect();
+        self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout,
+            entries: &entries,
+        })
+    }
+}
+
+const FLOAT: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterable: false };
+const D2: wgpu::TextureViewDimension = wgpu::TextureViewDimension::D2;
+
+impl Curves {
+    fn new(s: &Shared, width: u32, height: u32, segments: u32) -> Result<Self, RenderError> {
+        let ctx = s.ctx;
         let vertices = u64::from(width) * u64::from(height) * 2 * u64::from(segments);
         u32::try_from(vertices).map_err(|_| {
             RenderError::InvalidSettings(format!(
@@ -177,39 +262,18 @@ impl MotionBlur {
             .render()
             .sampled()
             .build(ctx)?;
-        let blurred = TextureBuilder::d2("motion blurred radiance", width, height, OUTPUT_FORMAT)
-            .storage()
-            .sampled()
-            .copy()
-            .build(ctx)?;
-        let meshes = gpu_scene.mesh_ranges.len().max(1);
-        let uniform_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("motion blur uniforms"),
-            size: size_of::<MotionBlurUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let identity = vec![[Mat4::IDENTITY; 2]; meshes];
         let tiles = u64::from(width.div_ceil(compute::TILE)) * u64::from(height.div_ceil(compute::TILE));
         let tile_moving = BufferBuilder::new("motion blur tiles", tiles * 4).storage().build(ctx)?;
         let pixels = u64::from(width) * u64::from(height);
         let moving_pixels =
             BufferBuilder::new("motion blur moving pixels", pixels * 4).storage().copy().build(ctx)?;
         let draw_args = BufferBuilder::new("motion blur draw", 16).storage().indirect().build(ctx)?;
-        let mesh_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("motion blur mesh motion"),
-            contents: bytemuck::cast_slice(&identity),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        });
 
-        let float = wgpu::TextureSampleType::Float { filterable: false };
-        let d2 = wgpu::TextureViewDimension::D2;
-        let draw_stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let draw_layout = compute::layout(
             ctx,
             "motion blur curves",
             &[
-                buffer_layout_entry(0, draw_stages, wgpu::BufferBindingType::Uniform),
+                buffer_layout_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT, wgpu::BufferBindingType::Uniform),
                 buffer_layout_entry(
                     1,
                     wgpu::ShaderStages::VERTEX,
@@ -217,7 +281,7 @@ impl MotionBlur {
                 ),
                 wgpu::BindGroupLayoutEntry {
                     visibility: wgpu::ShaderStages::FRAGMENT,
-                    ..texture_layout_entry(2, float, d2)
+                    ..texture_layout_entry(2, FLOAT, D2)
                 },
                 buffer_layout_entry(
                     8,
@@ -242,69 +306,55 @@ impl MotionBlur {
             "motion blur resolve",
             &[
                 compute::uniform_entry(0),
-                texture_layout_entry(2, float, d2),
-                texture_layout_entry(3, float, d2),
-                storage_texture_layout_entry(4, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly, d2),
+                texture_layout_entry(2, FLOAT, D2),
+                texture_layout_entry(3, FLOAT, D2),
+                storage_texture_layout_entry(4, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly, D2),
             ],
         );
-        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
-        let (radiance_view, accumulation_view, blurred_view) =
-            (view(radiance), view(&accumulation), view(&blurred));
-        let entry = |binding, resource| wgpu::BindGroupEntry { binding, resource };
-        let draw_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("motion blur curves"),
-            layout: &draw_layout,
-            entries: &[
-                entry(0, uniform_buffer.as_entire_binding()),
-                entry(1, mesh_buffer.as_entire_binding()),
-                entry(2, wgpu::BindingResource::TextureView(&radiance_view)),
-                entry(8, moving_pixels.as_entire_binding()),
+        let accumulation_view = accumulation.create_view(&Default::default());
+        let uniforms = s.uniform_buffer.as_entire_binding();
+        let draw_group = s.group(
+            "motion blur curves",
+            &draw_layout,
+            &[
+                (0, uniforms.clone()),
+                (1, s.mesh_buffer.as_entire_binding()),
+                (2, wgpu::BindingResource::TextureView(&s.radiance)),
+                (8, moving_pixels.as_entire_binding()),
             ],
-        });
-        let list_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("motion blur moving pixels"),
-            layout: &list_layout,
-            entries: &[
-                entry(0, uniform_buffer.as_entire_binding()),
-                entry(1, mesh_buffer.as_entire_binding()),
-                entry(5, tile_moving.as_entire_binding()),
-                entry(6, moving_pixels.as_entire_binding()),
-                entry(7, draw_args.as_entire_binding()),
+        );
+        let list_group = s.group(
+            "motion blur moving pixels",
+            &list_layout,
+            &[
+                (0, uniforms.clone()),
+                (1, s.mesh_buffer.as_entire_binding()),
+                (5, tile_moving.as_entire_binding()),
+                (6, moving_pixels.as_entire_binding()),
+                (7, draw_args.as_entire_binding()),
             ],
-        });
-        let resolve_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("motion blur resolve"),
-            layout: &resolve_layout,
-            entries: &[
-                entry(0, uniform_buffer.as_entire_binding()),
-                entry(2, wgpu::BindingResource::TextureView(&radiance_view)),
-                entry(3, wgpu::BindingResource::TextureView(&accumulation_view)),
-                entry(4, wgpu::BindingResource::TextureView(&blurred_view)),
-            ],
-        });
-
-        let defines = Defines::new().u32("SEGMENTS", segments);
-        let resolve_pipeline = compute::pipeline(
-            ctx,
+        );
+        let resolve_group = s.group(
             "motion blur resolve",
+            &resolve_layout,
+            &[
+                (0, uniforms),
+                (2, wgpu::BindingResource::TextureView(&s.radiance)),
+                (3, wgpu::BindingResource::TextureView(&accumulation_view)),
+                (4, wgpu::BindingResource::TextureView(&s.blurred)),
+            ],
+        );
+        let module = shaders::create_module(
+            ctx,
+            "motion blur curves",
             SOURCE,
-            defines.clone(),
-            "resolve",
-            &[&gpu_scene.bind_group_layout, &frame.bind_group_layout, &resolve_layout],
+            &s.defines.clone().u32("TILE", compute::TILE),
         )?;
-        let list_layouts = [&gpu_scene.bind_group_layout, &frame.bind_group_layout, &list_layout];
-        let list = |entry| {
-            compute::pipeline(ctx, "motion blur moving pixels", SOURCE, defines.clone(), entry, &list_layouts)
-        };
-        let (count_pipeline, offset_pipeline, list_pipeline) =
-            (list("count_moving")?, list("offset_tiles")?, list("list_moving")?);
-        let module =
-            shaders::create_module(ctx, "motion blur curves", SOURCE, &defines.u32("TILE", compute::TILE))?;
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("motion blur curves"),
             bind_group_layouts: &[
-                Some(&gpu_scene.bind_group_layout),
-                Some(&frame.bind_group_layout),
+                Some(&s.gpu_scene.bind_group_layout),
+                Some(&s.frame.bind_group_layout),
                 Some(&draw_layout),
             ],
             immediate_size: 0,
@@ -343,6 +393,281 @@ impl MotionBlur {
             multiview_mask: None,
             cache: None,
         });
+        Ok(Curves {
+            count_pipeline: s.compute("count_moving", &list_layout)?,
+            offset_pipeline: s.compute("offset_tiles", &list_layout)?,
+            list_pipeline: s.compute("list_moving", &list_layout)?,
+            list_group,
+            tile_moving,
+            moving_pixels,
+            draw_args,
+            draw_pipeline,
+            draw_group,
+            resolve_pipeline: s.compute("resolve", &resolve_layout)?,
+            resolve_group,
+            accumulation,
+        })
+    }
+
+    fn bytes(&self) -> u64 {
+        let (w, h) = (self.accumulation.width(), self.accumulation.height());
+        let texel = match self.accumulation.format() {
+            wgpu::TextureFormat::Rgba32Float => 16,
+            _ => 8,
+        };
+        u64::from(w) * u64::from(h) * texel
+            + self.moving_pixels.size()
+            + self.tile_moving.size()
+            + self.draw_args.size()
+    }
+
+    fn record(
+        &self,
+        ctx: &GpuContext,
+        groups: [&wgpu::BindGroup; 2],
+        (width, height): (u32, u32),
+        profiler: &mut Profiler,
+    ) -> Result<(), RenderError> {
+        let [scene, frame] = groups;
+        let list = [scene, frame, &self.list_group];
+        profiler.pass(ctx, "motion blur moving pixels", |encoder| {
+            let label = "motion blur moving pixels";
+            compute::dispatch_pixels(encoder, label, &self.count_pipeline, &list, width, height);
+            compute::dispatch(encoder, label, &self.offset_pipeline, &list, [1, 1, 1]);
+            compute::dispatch_pixels(encoder, label, &self.list_pipeline, &list, width, height);
+        })?;
+        let accumulation_view = self.accumulation.create_view(&Default::default());
+        profiler.pass(ctx, "motion blur curves", |encoder| {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("motion blur curves"),
+                color_attachments: &[crate::frame::cleared_target(&accumulation_view)],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.draw_pipeline);
+            pass.set_bind_group(0, scene, &[]);
+            pass.set_bind_group(1, frame, &[]);
+            pass.set_bind_group(2, &self.draw_group, &[]);
+            pass.draw_indirect(&self.draw_args, 0);
+        })?;
+        profiler.pass(ctx, "motion blur resolve", |encoder| {
+            compute::dispatch_pixels(
+                encoder,
+                "motion blur resolve",
+                &self.resolve_pipeline,
+                &[scene, frame, &self.resolve_group],
+                width,
+                height,
+            );
+        })?;
+        Ok(())
+    }
+}
+
+impl Linear {
+    fn new(s: &Shared, width: u32, height: u32, max_radius: u32) -> Result<Self, RenderError> {
+        let ctx = s.ctx;
+        let velocity =
+            TextureBuilder::d2("motion blur velocity", width, height, wgpu::TextureFormat::Rgba32Float)
+                .storage()
+                .sampled()
+                .build(ctx)?;
+        let tiles = (width.div_ceil(max_radius), height.div_ceil(max_radius));
+        let tile_bytes = u64::from(tiles.0) * u64::from(tiles.1) * 8;
+        let tile_max = BufferBuilder::new("motion blur tile max", tile_bytes).storage().build(ctx)?;
+        let neighbour_max =
+            BufferBuilder::new("motion blur neighbour max", tile_bytes).storage().build(ctx)?;
+        let velocity_view = velocity.create_view(&Default::default());
+        let velocity_layout = compute::layout(
+            ctx,
+            "motion blur velocity",
+            &[
+                compute::uniform_entry(0),
+                compute::storage_buffer_entry(1, true),
+                storage_texture_layout_entry(
+                    10,
+                    wgpu::TextureFormat::Rgba32Float,
+                    wgpu::StorageTextureAccess::WriteOnly,
+                    D2,
+                ),
+            ],
+        );
+        let tiles_layout = compute::layout(
+            ctx,
+            "motion blur tiles",
+            &[
+                compute::uniform_entry(0),
+                texture_layout_entry(11, FLOAT, D2),
+                compute::storage_buffer_entry(12, false),
+                compute::storage_buffer_entry(13, false),
+            ],
+        );
+        let gather_layout = compute::layout(
+            ctx,
+            "motion blur gather",
+            &[
+                compute::uniform_entry(0),
+                texture_layout_entry(2, FLOAT, D2),
+                storage_texture_layout_entry(4, OUTPUT_FORMAT, wgpu::StorageTextureAccess::WriteOnly, D2),
+                texture_layout_entry(11, FLOAT, D2),
+                compute::storage_buffer_entry(13, false),
+            ],
+        );
+        let uniforms = s.uniform_buffer.as_entire_binding();
+        let velocity_group = s.group(
+            "motion blur velocity",
+            &velocity_layout,
+            &[
+                (0, uniforms.clone()),
+                (1, s.mesh_buffer.as_entire_binding()),
+                (10, wgpu::BindingResource::TextureView(&velocity_view)),
+            ],
+        );
+        let tiles_group = s.group(
+            "motion blur tiles",
+            &tiles_layout,
+            &[
+                (0, uniforms.clone()),
+                (11, wgpu::BindingResource::TextureView(&velocity_view)),
+                (12, tile_max.as_entire_binding()),
+                (13, neighbour_max.as_entire_binding()),
+            ],
+        );
+        let gather_group = s.group(
+            "motion blur gather",
+            &gather_layout,
+            &[
+                (0, uniforms),
+                (2, wgpu::BindingResource::TextureView(&s.radiance)),
+                (4, wgpu::BindingResource::TextureView(&s.blurred)),
+                (11, wgpu::BindingResource::TextureView(&velocity_view)),
+                (13, neighbour_max.as_entire_binding()),
+            ],
+        );
+        Ok(Linear {
+            velocity_pipeline: s.compute("linear_velocity", &velocity_layout)?,
+            velocity_group,
+            tile_max_pipeline: s.compute("linear_tile_max", &tiles_layout)?,
+            neighbour_max_pipeline: s.compute("linear_neighbour_max", &tiles_layout)?,
+            tiles_group,
+            gather_pipeline: s.compute("linear_gather", &gather_layout)?,
+            gather_group,
+            tiles,
+            velocity,
+            tile_max,
+            neighbour_max,
+        })
+    }
+
+    fn bytes(&self) -> u64 {
+        u64::from(self.velocity.width()) * u64::from(self.velocity.height()) * 16
+            + self.tile_max.size()
+            + self.neighbour_max.size()
+    }
+
+    fn record(
+        &self,
+        ctx: &GpuContext,
+        groups: [&wgpu::BindGroup; 2],
+        (width, height): (u32, u32),
+        profiler: &mut Profiler,
+    ) -> Result<(), RenderError> {
+        let [scene, frame] = groups;
+        profiler.pass(ctx, "motion blur velocity", |encoder| {
+            compute::dispatch_pixels(
+                encoder,
+                "motion blur velocity",
+                &self.velocity_pipeline,
+                &[scene, frame, &self.velocity_group],
+                width,
+                height,
+            );
+        })?;
+        profiler.pass(ctx, "motion blur tiles", |encoder| {
+            let tiles = [scene, frame, &self.tiles_group];
+            let (tx, ty) = self.tiles;
+            compute::dispatch_pixels(encoder, "motion blur tiles", &self.tile_max_pipeline, &tiles, tx, ty);
+            compute::dispatch_pixels(
+                encoder,
+                "motion blur tiles",
+                &self.neighbour_max_pipeline,
+                &tiles,
+                tx,
+                ty,
+            );
+        })?;
+        profiler.pass(ctx, "motion blur gather", |encoder| {
+            compute::dispatch_pixels(
+                encoder,
+                "motion blur gather",
+                &self.gather_pipeline,
+                &[scene, frame, &self.gather_group],
+                width,
+                height,
+            );
+        })?;
+        Ok(())
+    }
+}
+
+/// The post-process for one output size.
+pub struct MotionBlur {
+    settings: MotionBlurSettings,
+    width: u32,
+    height: u32,
+    uniform_buffer: wgpu::Buffer,
+    mesh_buffer: wgpu::Buffer,
+    mesh_written: Vec<[Mat4; 2]>,
+    method: Method,
+    blurred: wgpu::Texture,
+}
+
+impl MotionBlur {
+    /// Blurs `radiance` (the technique's output, `frame`'s size).
+    pub fn new(
+        ctx: &GpuContext,
+        gpu_scene: &GpuScene,
+        frame: &FrameResources,
+        radiance: &wgpu::Texture,
+        settings: MotionBlurSettings,
+    ) -> Result<Self, RenderError> {
+        let (width, height) = (frame.width, frame.height);
+        let blurred = TextureBuilder::d2("motion blurred radiance", width, height, OUTPUT_FORMAT)
+            .storage()
+            .sampled()
+            .copy()
+            .build(ctx)?;
+        let uniform_buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("motion blur uniforms"),
+            size: size_of::<MotionBlurUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let identity = vec![[Mat4::IDENTITY; 2]; gpu_scene.mesh_ranges.len().max(1)];
+        let mesh_buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("motion blur mesh motion"),
+            contents: bytemuck::cast_slice(&identity),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let shared = Shared {
+            ctx,
+            gpu_scene,
+            frame,
+            uniform_buffer: &uniform_buffer,
+            mesh_buffer: &mesh_buffer,
+            radiance: view(radiance),
+            blurred: view(&blurred),
+            defines: settings.defines(),
+        };
+        let method = match settings.params.choice("method") {
+            "linear" => {
+                Method::Linear(Linear::new(&shared, width, height, settings.params.int("max_radius") as u32)?)
+            }
+            _ => Method::Curves(Curves::new(&shared, width, height, settings.segments())?),
+        };
         Ok(MotionBlur {
             settings,
             width,
@@ -350,18 +675,7 @@ impl MotionBlur {
             uniform_buffer,
             mesh_buffer,
             mesh_written: identity,
-            count_pipeline,
-            offset_pipeline,
-            list_pipeline,
-            list_group,
-            tile_moving,
-            moving_pixels,
-            draw_args,
-            draw_pipeline,
-            draw_group,
-            resolve_pipeline,
-            resolve_group,
-            accumulation,
+            method,
             blurred,
         })
     }
@@ -379,21 +693,19 @@ impl MotionBlur {
         &self.blurred
     }
 
-    /// Bytes of the accumulation target, the blurred image and the list of moving pixels.
+    /// Bytes of the blurred image and the method's own buffers and textures.
     pub fn bytes(&self) -> u64 {
-        let texels = u64::from(self.width) * u64::from(self.height);
-        let accumulation = match self.accumulation.format() {
-            wgpu::TextureFormat::Rgba32Float => 16,
-            _ => 8,
-        };
-        texels * (accumulation + 16)
-            + self.moving_pixels.size()
-            + self.tile_moving.size()
-            + self.draw_args.size()
+        let blurred = u64::from(self.width) * u64::from(self.height) * 16;
+        blurred
+            + match &self.method {
+                Method::Curves(c) => c.bytes(),
+                Method::Linear(l) => l.bytes(),
+            }
     }
 
-    /// Records the passes "motion blur curves" and "motion blur resolve" for the frame whose G-buffer is
-    /// in `frame` and whose technique wrote the radiance this was created with.
+    /// Records the method's passes (curves: "motion blur moving pixels", "motion blur curves", "motion
+    /// blur resolve"; linear: "motion blur velocity", "motion blur tiles", "motion blur gather") for the
+    /// frame whose G-buffer is in `frame` and whose technique wrote the radiance this was created with.
     pub fn record(
         &mut self,
         ctx: &GpuContext,
@@ -424,39 +736,11 @@ impl MotionBlur {
             ctx.queue.write_buffer(&self.mesh_buffer, 0, bytemuck::cast_slice(&pose.mesh_motion));
             self.mesh_written.clone_from(&pose.mesh_motion);
         }
-        let accumulation_view = self.accumulation.create_view(&Default::default());
-        let groups = [&gpu_scene.bind_group, &frame.bind_group, &self.list_group];
-        profiler.pass(ctx, "motion blur moving pixels", |encoder| {
-            let label = "motion blur moving pixels";
-            compute::dispatch_pixels(encoder, label, &self.count_pipeline, &groups, self.width, self.height);
-            compute::dispatch(encoder, label, &self.offset_pipeline, &groups, [1, 1, 1]);
-            compute::dispatch_pixels(encoder, label, &self.list_pipeline, &groups, self.width, self.height);
-        })?;
-        profiler.pass(ctx, "motion blur curves", |encoder| {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("motion blur curves"),
-                color_attachments: &[crate::frame::cleared_target(&accumulation_view)],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.draw_pipeline);
-            pass.set_bind_group(0, &gpu_scene.bind_group, &[]);
-            pass.set_bind_group(1, &frame.bind_group, &[]);
-            pass.set_bind_group(2, &self.draw_group, &[]);
-            pass.draw_indirect(&self.draw_args, 0);
-        })?;
-        profiler.pass(ctx, "motion blur resolve", |encoder| {
-            compute::dispatch_pixels(
-                encoder,
-                "motion blur resolve",
-                &self.resolve_pipeline,
-                &[&gpu_scene.bind_group, &frame.bind_group, &self.resolve_group],
-                self.width,
-                self.height,
-            );
-        })?;
-        Ok(())
+        let groups = [&gpu_scene.bind_group, &frame.bind_group];
+        let size = (self.width, self.height);
+        match &self.method {
+            Method::Curves(c) => c.record(ctx, groups, size, profiler),
+            Method::Linear(l) => l.record(ctx, groups, size, profiler),
+        }
     }
 }

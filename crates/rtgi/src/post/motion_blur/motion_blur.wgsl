@@ -13,6 +13,7 @@
 // run) and write the indirect draw's vertex count.
 
 #import common/frame.wgsl
+#import common/random.wgsl
 
 struct MotionBlurUniforms {
     // View-projections at the shutter's opening (s = 0) and closing (s = 1); s = ½ is the frame's.
@@ -262,4 +263,132 @@ fn resolve(@builtin(global_invocation_id) id: vec3u) {
     let wb = blur.background_weight;
     // Where no curve arrived the pixel keeps its radiance exactly (w_b c / w_b need not round to c).
     textureStore(blurred, p, vec4f(select((a.rgb + wb * c) / (a.a + wb), c, a.a == 0.0), 1.0));
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The linear baseline the paper compares with: a gather along one straight motion vector per pixel,
+// McGuire et al. 2012 ("A Reconstruction Filter for Plausible Motion Blur"): per-pixel half-shutter
+// velocity v = (B2 − B0) / 2 clamped to MAX_RADIUS pixels, the largest velocity of every MAX_RADIUS²
+// tile and of its 3×3 neighbourhood, then SAMPLES taps along the neighbourhood's velocity, each weighted
+// by soft depth comparisons, cones (the tap or the pixel blurring over the other) and cylinders (both
+// moving alike).
+
+// Per pixel: velocity (xy, pixels over half the shutter) and view depth (z).
+@group(2) @binding(10) var velocity_out: texture_storage_2d<rgba32float, write>;
+@group(2) @binding(11) var velocity: texture_2d<f32>;
+// Per MAX_RADIUS² tile: its largest velocity, then the largest of its 3×3 neighbourhood.
+@group(2) @binding(12) var<storage, read_write> tile_max: array<vec2f>;
+@group(2) @binding(13) var<storage, read_write> neighbour_max: array<vec2f>;
+
+fn clamp_length(v: vec2f, limit: f32) -> vec2f {
+    let l = length(v);
+    return select(v, v * (limit / l), l > limit);
+}
+
+@compute @workgroup_size(TILE, TILE)
+fn linear_velocity(@builtin(global_invocation_id) id: vec3u) {
+    if any(id.xy >= frame.size) {
+        return;
+    }
+    let c = pixel_curve(id.xy);
+    let v = select(vec2f(0.0), clamp_length(0.5 * (c.b2.xy - c.b0.xy), f32(MAX_RADIUS)), c.moves);
+    // The frame's depth: B1's is 2 d(now) − (d(open) + d(close)) / 2, so d(now) is their mean.
+    let depth = 0.5 * c.b1.depth + 0.25 * (c.b0.depth + c.b2.depth);
+    textureStore(velocity_out, id.xy, vec4f(v, depth, 0.0));
+}
+
+fn tiles() -> vec2u {
+    return (frame.size + MAX_RADIUS - 1u) / MAX_RADIUS;
+}
+
+fn longer(a: vec2f, b: vec2f) -> vec2f {
+    return select(a, b, dot(b, b) > dot(a, a));
+}
+
+@compute @workgroup_size(TILE, TILE)
+fn linear_tile_max(@builtin(global_invocation_id) id: vec3u) {
+    let n = tiles();
+    if any(id.xy >= n) {
+        return;
+    }
+    var best = vec2f(0.0);
+    let first = id.xy * MAX_RADIUS;
+    let end = min(first + MAX_RADIUS, frame.size);
+    for (var y = first.y; y < end.y; y++) {
+        for (var x = first.x; x < end.x; x++) {
+            best = longer(best, textureLoad(velocity, vec2u(x, y), 0).xy);
+        }
+    }
+    tile_max[id.y * n.x + id.x] = best;
+}
+
+@compute @workgroup_size(TILE, TILE)
+fn linear_neighbour_max(@builtin(global_invocation_id) id: vec3u) {
+    let n = tiles();
+    if any(id.xy >= n) {
+        return;
+    }
+    var best = vec2f(0.0);
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let t = vec2i(id.xy) + vec2i(dx, dy);
+            if all(t >= vec2i(0)) && all(vec2u(t) < n) {
+                best = longer(best, tile_max[u32(t.y) * n.x + u32(t.x)]);
+            }
+        }
+    }
+    neighbour_max[id.y * n.x + id.x] = best;
+}
+
+// How far a depth may lie behind another and still count as level with it (view-depth fraction).
+const SOFT_DEPTH = 0.01;
+
+// 1 where `a` is nearer than `b`, falling to 0 over SOFT_DEPTH of their depth.
+fn nearer(a: f32, b: f32) -> f32 {
+    return clamp(1.0 - (a - b) / (SOFT_DEPTH * min(a, b)), 0.0, 1.0);
+}
+
+fn cone(distance_xy: f32, speed: f32) -> f32 {
+    return clamp(1.0 - distance_xy / max(speed, 1e-3), 0.0, 1.0);
+}
+
+fn cylinder(distance_xy: f32, speed: f32) -> f32 {
+    return 1.0 - smoothstep(0.95 * speed, 1.05 * speed, distance_xy);
+}
+
+@compute @workgroup_size(TILE, TILE)
+fn linear_gather(@builtin(global_invocation_id) id: vec3u) {
+    if any(id.xy >= frame.size) {
+        return;
+    }
+    let p = vec2i(id.xy);
+    let centre = textureLoad(radiance, p, 0).rgb;
+    let t = id.xy / MAX_RADIUS;
+    let vn = neighbour_max[t.y * tiles().x + t.x];
+    if length(vn) < 0.5 {
+        textureStore(blurred, p, vec4f(centre, 1.0));
+        return;
+    }
+    let vx = textureLoad(velocity, p, 0);
+    let speed_x = max(length(vx.xy), 0.5);
+    var weight = 1.0 / speed_x;
+    var sum = centre * weight;
+    // A fixed per-pixel offset of the taps (the paper's jitter), the same every frame.
+    let jitter = u32_to_unit(hash2(id.x, id.y)) - 0.5;
+    let size = vec2i(frame.size);
+    for (var i = 0u; i < SAMPLES; i++) {
+        let s = mix(-1.0, 1.0, (f32(i) + jitter + 1.0) / f32(SAMPLES + 1u));
+        let q = clamp(vec2i(round(vec2f(p) + vn * s)), vec2i(0), size - 1);
+        if all(q == p) {
+            continue;
+        }
+        let vy = textureLoad(velocity, q, 0);
+        let d = length(vec2f(q - p));
+        let speed_y = max(length(vy.xy), 0.5);
+        let a = nearer(vy.z, vx.z) * cone(d, speed_y) + nearer(vx.z, vy.z) * cone(d, speed_x)
+            + 2.0 * cylinder(d, speed_y) * cylinder(d, speed_x);
+        weight += a;
+        sum += a * textureLoad(radiance, q, 0).rgb;
+    }
+    textureStore(blurred, p, vec4f(sum / weight, 1.0));
 }
