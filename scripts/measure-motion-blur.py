@@ -90,6 +90,10 @@ def main():
             times = [pass_mean_ms(stats, p) for p in PASSES[method]]
             results.append((label, m.compare(rtgi, ref, out), times, stats["frame_gpu"]))
         rows.append((k, sharp_error, sharp_stats["frame_gpu"], results))
+        linear = next(v for v, (label, _) in enumerate(VARIANTS) if label.startswith("linear"))
+        m.run([rtgi, "montage", sharp, OUT / f"c{k}-v0.exr", OUT / f"c{k}-v{linear}.exr", ref,
+               "--label", "sharp", "--label", "curves (paper)", "--label", "linear", "--label", "reference",
+               "--out", m.ROOT / "docs" / "measurements" / f"{args.doc}-{k + 1}.png"])
 
     end_load = m.load_average()
     cpu = adapter.get("device_type") == "Cpu"
@@ -116,6 +120,8 @@ def main():
     ]
     for k, (scene, t, shutter, what) in enumerate(CASES):
         lines.append(f"| {k + 1} | `{scene}` | {t} | {shutter} | {what} |")
+    lines += ["", "Each case's sharp frame, curves at the paper's defaults, the linear baseline and the reference: "
+              + ", ".join(f"[case {k + 1}]({args.doc}-{k + 1}.png)" for k in range(len(CASES))) + "."]
     lines += ["", "| case | image | FLIP | relMSE | ratio | passes ms | blur ms | blur ÷ direct |",
               "|---|---|---:|---:|---:|---|---:|---:|"]
     fmt = lambda v, d=2: "–" if v is None else f"{v:.{d}f}"  # noqa: E731
