@@ -96,6 +96,46 @@ fn scripted_view_matches_the_render_command_it_copies() {
     assert!(red > 20000, "only {red} red pixels right of the panel: the picture is not shown");
 }
 
+/// Motion blur in the viewer (`shutter` in a script, the panel's shutter slider) is the post-process
+/// `rtgi render --shutter` runs: the copied command carries the shutter and renders the same image, which
+/// differs from the sharp one.
+#[test]
+fn scripted_motion_blur_matches_the_render_command_it_copies() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let script = "time 0.5\nshutter 0.25\nframes 2\nscreenshot view.exr\nrender-command command.txt\nquit\n";
+    std::fs::write(dir.path().join("script.txt"), script).expect("write the script");
+    let args = [
+        "--scene",
+        "cornell:animate=box",
+        "--technique",
+        "direct",
+        "--render-size",
+        "96x96",
+        "--script",
+        "script.txt",
+    ];
+    let Some(output) = view_under_xvfb(dir.path(), &args) else { return };
+    assert!(output.status.success(), "rtgi view failed:\n{}", text(&output));
+    let command = std::fs::read_to_string(dir.path().join("command.txt")).expect("the render command");
+    assert!(command.contains("--shutter=0.25") && command.contains("--time=0.5"), "{command}");
+    let words: Vec<&str> = command.split_whitespace().collect();
+    let mut blurred_args: Vec<&str> = words[1..words.len() - 1].to_vec();
+    blurred_args.push("render.exr");
+    let rendered = rtgi(dir.path(), &blurred_args);
+    assert!(rendered.status.success(), "{command}:\n{}", text(&rendered));
+    let mut sharp_args: Vec<&str> =
+        blurred_args.iter().copied().filter(|w| !w.starts_with("--shutter")).collect();
+    *sharp_args.last_mut().expect("an output") = "sharp.exr";
+    assert!(rtgi(dir.path(), &sharp_args).status.success());
+    let read = |name: &str| HdrImage::read(dir.path().join(name)).expect(name);
+    let (viewed, rendered, sharp) = (read("view.exr"), read("render.exr"), read("sharp.exr"));
+    // Measured 0: the same frames, post-process and adapter.
+    let flip = rtgi::metrics::flip(&rendered, &viewed).expect("same size");
+    assert!(flip < 1e-4, "FLIP {flip} between the viewer's image and `{command}`");
+    let blur = rtgi::metrics::flip(&sharp, &viewed).expect("same size");
+    assert!(blur > 1e-3, "the viewer's image is the sharp one (FLIP {blur})");
+}
+
 #[test]
 fn a_failing_script_step_names_the_problem_and_exits_non_zero() {
     let dir = tempfile::tempdir().expect("temp dir");

@@ -581,6 +581,10 @@ impl ScriptRunner {
                 viewer.panel.exposure = ev;
                 self.send(viewer, Command::Exposure(ev));
             }
+            Action::Shutter(seconds) => {
+                viewer.panel.shutter = seconds;
+                self.send(viewer, Command::Shutter(seconds));
+            }
             Action::Compare(technique) => {
                 viewer.panel.comparison = technique.clone();
                 self.send(viewer, Command::Compare(technique));

@@ -32,6 +32,8 @@ pub struct PanelState {
     /// What `values` were last synchronised from (technique and parameters of the status).
     synced: (String, Vec<(String, String)>),
     pub exposure: f32,
+    /// Motion blur's shutter in scene seconds (0: off).
+    pub shutter: f32,
     pub comparison: Option<String>,
     /// Where the comparison starts, as a fraction of the image width (0: all comparison).
     pub split: f32,
@@ -53,6 +55,7 @@ impl PanelState {
             dirty: false,
             synced: Default::default(),
             exposure,
+            shutter: 0.0,
             comparison: None,
             split: 0.5,
             flip_map: false,
@@ -157,6 +160,10 @@ pub fn panel(ui: &mut egui::Ui, state: &mut PanelState, status: &Status) -> Vec<
                     send(&mut out, Command::Time(t));
                 }
             });
+            let shutter = egui::Slider::new(&mut state.shutter, 0.0..=0.5).text("shutter s (motion blur)");
+            if ui.add(shutter).changed() {
+                send(&mut out, Command::Shutter(state.shutter));
+            }
         }
     });
 
@@ -477,6 +484,9 @@ pub fn render_command(status: &Status, values: &BTreeMap<String, String>) -> Str
     }
     if status.exposure != 0.0 {
         words.push(format!("--exposure={}", status.exposure));
+    }
+    if status.shutter > 0.0 {
+        words.push(format!("--shutter={}", status.shutter));
     }
     words.push("--out".into());
     words.push("view.png".into());

@@ -11,6 +11,7 @@
 //! scene-camera             back to the scene's own camera
 //! time SECONDS
 //! exposure EV
+//! shutter SECONDS          motion blur over this shutter around each frame's time (0: off)
 //! compare TECHNIQUE|off    a second renderer of the same view (`path`: the progressive reference)
 //! flip on|off              the FLIP map against the comparison
 //! screenshot FILE          the rendered image: .png (tone-mapped) or .exr (linear)
@@ -35,6 +36,7 @@ pub enum Action {
     SceneCamera,
     Time(f32),
     Exposure(f32),
+    Shutter(f32),
     Compare(Option<String>),
     Flip(bool),
     Screenshot(PathBuf),
@@ -97,6 +99,10 @@ fn parse_line(line: &str) -> anyhow::Result<Action> {
         "scene-camera" => none().map(|_| Action::SceneCamera)?,
         "time" => Action::Time(number(one()?)?),
         "exposure" => Action::Exposure(number(one()?)?),
+        "shutter" => match number(one()?)? {
+            s if s >= 0.0 => Action::Shutter(s),
+            s => bail!("'shutter' needs seconds, at least 0, not {s}"),
+        },
         "compare" => Action::Compare(Some(one()?.to_string()).filter(|t| t != "off")),
         "flip" => match one()? {
             "on" => Action::Flip(true),
@@ -123,7 +129,7 @@ mod tests {
     fn parses_every_action_and_names_the_line_of_an_error() {
         let text = "# a comment\nframes 4\ntechnique rsm vpls=64 samples=32\nset samples=16  # inline\n\
                     camera 0,1,3,0,1,0,45\ncompare path\ncompare off\nflip on\nexposure -1.5\ntime 2\n\
-                    screenshot a.png\nwindow-screenshot w.png\nmeasure 30 m.json\nrun\nscene-camera\nquit\n";
+                    screenshot a.png\nwindow-screenshot w.png\nmeasure 30 m.json\nrun\nscene-camera\nshutter 0.25\nquit\n";
         let actions = parse(Path::new("s.txt"), text).expect("parses");
         assert_eq!(actions[0], Action::Frames(4));
         assert_eq!(
@@ -138,8 +144,19 @@ mod tests {
         assert_eq!(actions[5], Action::Compare(None));
         assert_eq!(actions[7], Action::Exposure(-1.5));
         assert_eq!(actions[11], Action::Measure(30, "m.json".into()));
-        assert_eq!(actions.len(), 15);
-        for bad in ["frames 0", "frames", "set", "flip maybe", "time x", "jump 3", "quit now", "measure 3"] {
+        assert_eq!(actions[14], Action::Shutter(0.25));
+        assert_eq!(actions.len(), 16);
+        for bad in [
+            "frames 0",
+            "frames",
+            "set",
+            "flip maybe",
+            "time x",
+            "jump 3",
+            "quit now",
+            "measure 3",
+            "shutter -1",
+        ] {
             let e = parse(Path::new("s.txt"), &format!("run\n{bad}\n")).expect_err(bad);
             assert!(format!("{e:#}").starts_with("s.txt:2:"), "{e:#}");
         }

@@ -12,6 +12,7 @@ use eframe::egui;
 use rtgi::gpu::display::Display;
 use rtgi::gpu::{GpuContext, TimeSummary};
 use rtgi::image::ToneMap;
+use rtgi::post::motion_blur::MotionBlurSettings;
 use rtgi::renderer::{Renderer, RendererSettings};
 use rtgi::scene::{Camera, Scene, SceneSpec};
 
@@ -33,6 +34,9 @@ pub enum Command {
     Time(f32),
     RenderSize(u32, u32),
     Exposure(f32),
+    /// Motion blur over a shutter of this many scene seconds around each frame's time, with the
+    /// post-process's default parameters (0: off); the comparison is blurred alike.
+    Shutter(f32),
     /// Render a second technique of the same view beside the first (`path` for the progressive
     /// reference), or stop.
     Compare(Option<String>),
@@ -63,6 +67,8 @@ pub struct Status {
     pub size: (u32, u32),
     pub exposure: f32,
     pub time: f32,
+    /// Motion blur's shutter, seconds (0: off).
+    pub shutter: f32,
     pub camera: Camera,
     /// Whether the scene's camera is in use (false once the window moved it).
     pub scene_camera: bool,
@@ -140,6 +146,8 @@ struct Worker {
     size: (u32, u32),
     exposure: f32,
     time: f32,
+    /// Motion blur's shutter, seconds (0: off).
+    shutter: f32,
     camera: Option<Camera>,
     hold: Option<u32>,
     flip_map: bool,
@@ -177,6 +185,7 @@ pub fn run(start: Start, commands: Receiver<Command>, shared: Arc<Mutex<Shared>>
         settings: start.settings,
         size: start.size,
         exposure: start.exposure,
+        shutter: 0.0,
         time: 0.0,
         camera: None,
         hold: None,
@@ -356,6 +365,14 @@ impl Worker {
                     Ok(())
                 });
             }
+            Command::Shutter(seconds) => {
+                let previous = self.shutter;
+                self.shutter = seconds;
+                self.attempt("setting the motion blur", |w| w.apply_shutter());
+                if self.failed {
+                    self.shutter = previous;
+                }
+            }
             Command::Exposure(ev) => {
                 self.exposure = ev;
                 // A held image is shown again at the new exposure.
@@ -428,6 +445,19 @@ impl Worker {
         if let Some(name) = self.comparison_technique.clone() {
             self.build_comparison(&name)?;
         }
+        self.apply_shutter()
+    }
+
+    /// Gives every renderer the current shutter's motion blur (or none).
+    fn apply_shutter(&mut self) -> anyhow::Result<()> {
+        let blur = if self.shutter > 0.0 {
+            Some(MotionBlurSettings::new(self.shutter, &[]).map_err(anyhow::Error::msg)?)
+        } else {
+            None
+        };
+        for r in self.renderers() {
+            r.set_motion_blur(blur.clone())?;
+        }
         Ok(())
     }
 
@@ -450,7 +480,7 @@ impl Worker {
             comparison.set_camera(camera);
         }
         self.comparison = Some(Comparison { renderer: comparison, display: Display::new(&self.ctx)? });
-        Ok(())
+        self.apply_shutter()
     }
 
     /// Renders one frame of each renderer and shows it.
@@ -525,6 +555,7 @@ impl Worker {
         s.parameters = self.parameters.clone();
         s.exposure = self.exposure;
         s.time = self.time;
+        s.shutter = self.shutter;
         s.frames = self.frames;
         s.commands_done = self.commands_done;
         s.idle = idle;
