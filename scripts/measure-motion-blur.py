@@ -8,7 +8,8 @@ Per case (an animated built-in scene at one time, one shutter), with `direct` an
 the brute-force reference (`rtgi render --shutter S --shutter-reference N`: the mean of N fresh frames at
 times stratified over the shutter), the sharp frame (N frames accumulated at t, so its noise is the
 reference's) and the blurred one (the same, with `--shutter S`) at the paper's defaults and with other
-background weights and segment counts, and the linear baseline (`method=linear`, McGuire et al. 2012).
+background weights and segment counts, with rtgi's coverage weights (each curve's fragments share one unit
+of weight), and the linear baseline (`method=linear`, McGuire et al. 2012).
 Reports FLIP and relative MSE against the reference, the ratio of the blurred frame's relative MSE to the
 sharp frame's, and the post-process's GPU time per frame (curves: listing the moving pixels + drawing the
 curves + the resolve; linear: velocities + tile maxima + the gather) next to `direct`'s whole frame.
@@ -36,6 +37,7 @@ VARIANTS = [
     ("w_b 20", ["background_weight=20"]),
     ("Δ 4", ["segments=4"]),
     ("Δ 20", ["segments=20"]),
+    ("coverage weights, w_b 1", ["weights=coverage", "background_weight=1"]),
     ("linear, K 20, S 15", ["method=linear"]),
     ("linear, K 40", ["method=linear", "max_radius=40"]),
 ]
@@ -106,6 +108,9 @@ def main():
         "quadratic Bézier through its screen positions at the shutter's opening, the frame's time and the "
         "closing, cut into Δ lines and drawn with additive blending (Gaussian weight of the curve parameter, "
         "σ = 2), depth-tested against the frame; the resolve keeps each pixel's own radiance with weight w_b. "
+        "Coverage weights (`weights=coverage`, not the paper's): each fragment's weight is also divided by its "
+        "curve's fragment count, so a curve adds one unit of weight in all, the fraction of the shutter its "
+        "surface spends over each pixel. "
         "Linear: the baseline the paper compares with (McGuire et al. 2012), a gather of S taps along the "
         "largest half-shutter velocity of the pixel's K×K tile and its neighbours, weighted by depth, cones "
         "and cylinders. "

@@ -34,7 +34,7 @@ pub const SOURCE: &str = include_str!("motion_blur.wgsl");
 
 /// The post-process's parameters (`rtgi render --motion-blur-set KEY=VALUE`). Defaults are the
 /// paper's {w_b, Δ, σ} = {5, 11 points, 2}.
-pub const MOTION_BLUR_PARAMS: [ParamSpec; 8] = [
+pub const MOTION_BLUR_PARAMS: [ParamSpec; 9] = [
     ParamSpec {
         name: "method",
         kind: ParamKind::Choice(&["curves", "linear"]),
@@ -45,7 +45,9 @@ pub const MOTION_BLUR_PARAMS: [ParamSpec; 8] = [
     },
     ParamSpec {
         name: "max_radius",
-        kind: ParamKind::Int { min: 1, max: 256 },
+        // A tile's maximum is one invocation's loop over max_radius² pixels: lavapipe ends loops after
+        // 65535 iterations (README), so 128² is the most that stays exact there.
+        kind: ParamKind::Int { min: 1, max: 128 },
         default: "20",
         doc: "linear: the longest blur in pixels towards either end of the shutter, and the edge of its \
               velocity tiles",
@@ -67,6 +69,16 @@ pub const MOTION_BLUR_PARAMS: [ParamSpec; 8] = [
         kind: ParamKind::Float { min: 0.01, max: 100.0 },
         default: "2",
         doc: "σ of the Gaussian weight over the curve parameter s in [0, 1], centred at the frame's time",
+    },
+    ParamSpec {
+        name: "weights",
+        kind: ParamKind::Choice(&["paper", "coverage"]),
+        default: "paper",
+        doc: "curves: paper: every fragment weighs the Gaussian alone, so a streak's opacity grows with the \
+              number of curves crossing a pixel (the object's size in pixels) against w_b; coverage: each \
+              curve's fragments share one unit of weight (the Gaussian over the curve's fragment count), the \
+              fraction of the shutter the pixel's surface spends over each pixel, which does not depend on \
+              the resolution (pair it with background_weight=1)",
     },
     ParamSpec {
         name: "background_weight",
@@ -118,6 +130,7 @@ impl MotionBlurSettings {
             .u32("SEGMENTS", self.segments())
             .u32("MAX_RADIUS", p.int("max_radius") as u32)
             .u32("SAMPLES", p.int("samples") as u32)
+            .u32("COVERAGE", u32::from(p.choice("weights") == "coverage"))
     }
 }
 

@@ -114,6 +114,23 @@ struct CurveVertex {
     // Curve parameter and view depth: linear in screen space, as the curve was cut into segments there.
     @location(1) @interpolate(linear) s: f32,
     @location(2) @interpolate(linear) depth: f32,
+    // What every fragment's weight is multiplied by: 1 (the paper), or with COVERAGE one over the
+    // curve's fragment count.
+    @location(3) @interpolate(flat) scale: f32,
+}
+
+// About how many fragments the curve's lines cover: each line rasterises to about its longer axis's
+// extent in pixels.
+fn fragments_along(c: Curve) -> f32 {
+    var count = 0.0;
+    var previous = c.b0.xy;
+    for (var k = 1u; k <= SEGMENTS; k++) {
+        let next = curve_at(c, f32(k) / f32(SEGMENTS)).xy;
+        let d = abs(next - previous);
+        count += max(d.x, d.y);
+        previous = next;
+    }
+    return max(count, 1.0);
 }
 
 @vertex
@@ -126,12 +143,13 @@ fn vs_curve(@builtin(vertex_index) v: u32) -> CurveVertex {
     let curve = pixel_curve(pixel);
     if !curve.moves {
         // Outside the clip volume: the segment is dropped before rasterisation.
-        return CurveVertex(vec4f(2.0, 2.0, 2.0, 1.0), source, s, FAR);
+        return CurveVertex(vec4f(2.0, 2.0, 2.0, 1.0), source, s, FAR, 0.0);
     }
     let b = curve_at(curve, s);
     let size = vec2f(frame.size);
     let ndc = vec2f(b.xy.x / size.x * 2.0 - 1.0, 1.0 - b.xy.y / size.y * 2.0);
-    return CurveVertex(vec4f(ndc, 0.5, 1.0), source, s, b.depth);
+    let scale = select(1.0, 1.0 / fragments_along(curve), COVERAGE == 1u);
+    return CurveVertex(vec4f(ndc, 0.5, 1.0), source, s, b.depth, scale);
 }
 
 @fragment
@@ -149,7 +167,7 @@ fn fs_curve(in: CurveVertex) -> @location(0) vec4f {
     let source = vec2i(vec2u(in.source % frame.size.x, in.source / frame.size.x));
     let c = textureLoad(radiance, source, 0).rgb;
     let x = (in.s - 0.5) / blur.sigma;
-    let w = exp(-0.5 * x * x);
+    let w = exp(-0.5 * x * x) * in.scale;
     return vec4f(c * w, w);
 }
 

@@ -133,10 +133,13 @@ fn motion_blur_is_deterministic() {
     assert!(bits(&images[0]) == bits(&images[1]), "two runs differ");
 }
 
+/// A name and its motion blur settings.
+type Variant<'a> = (&'a str, &'a [(&'a str, &'a str)]);
+
 /// (relative MSE of the sharp frame, of the blurred frame per `method`) against the brute-force
 /// reference, all over `samples` frames (accumulated at t, or one per shutter time), so their noise is
 /// alike.
-fn errors_against_reference(scene: &str, t: f32, shutter: f32, methods: &[&str]) -> (f64, Vec<f64>) {
+fn errors_against_reference(scene: &str, t: f32, shutter: f32, methods: &[Variant]) -> (f64, Vec<f64>) {
     let (size, samples) = (96, 16);
     let ctx = context();
     let mut r = renderer(&ctx, scene, size);
@@ -146,8 +149,8 @@ fn errors_against_reference(scene: &str, t: f32, shutter: f32, methods: &[&str])
     let sharp = error(&render(&mut r, None, samples));
     let blurred: Vec<f64> = methods
         .iter()
-        .map(|method| {
-            let e = error(&render(&mut r, Some(settings(shutter, &[("method", method)])), samples));
+        .map(|(method, blur)| {
+            let e = error(&render(&mut r, Some(settings(shutter, blur)), samples));
             eprintln!(
                 "{scene} t={t} shutter={shutter} {method}: relMSE sharp {sharp:.5}, blurred {e:.5} ({:.3}x)",
                 e / sharp
@@ -161,23 +164,27 @@ fn errors_against_reference(scene: &str, t: f32, shutter: f32, methods: &[&str])
 /// The blurred frame is nearer the brute-force reference than the sharp one, on a moving box and camera
 /// (the hand-written animated glTF, lit by a point light: no noise), a tumbling knot (curved motion) and
 /// a camera flight. Measured ratios of relative MSE, blurred / sharp, on lavapipe at 96²: curves 0.556,
-/// 0.666, 0.867; linear 0.496, 0.888 and 2.38: on the flight, whose 96² image moves by up to a fifth of
-/// its width, the linear gather's 20-pixel tiles spread the fastest motion over slower neighbours (at
-/// 256² it is 1.07, with a lower FLIP than the sharp frame: docs/measurements/motion-blur-lavapipe.md),
-/// so that cell is only reported. The bounds ask for at least half the measured improvement:
-/// 1 − (1 − measured) / 2. (Curves reversed in time, or a camera frozen at the closing, give 0.59 and
-/// 0.74 on the box: the curves' geometry is checked exactly by `gpu_curves_equal_their_cpu_twin`; this
-/// checks the images.)
+/// 0.666, 0.867; curves with `weights=coverage` and w_b 1: 0.664, 0.683, 0.849; linear 0.496, 0.888 and
+/// 2.38. On the flight, whose 96² image moves by up to a fifth of its width, the linear gather's
+/// 20-pixel tiles spread the fastest motion over slower neighbours (at 256² it is 1.07, with a lower FLIP
+/// than the sharp frame: docs/measurements/motion-blur-lavapipe.md), so that cell is only reported. The
+/// bounds ask for at least half the measured improvement: 1 − (1 − measured) / 2. (Curves reversed in
+/// time, or a camera frozen at the closing, give 0.59 and 0.74 on the box: the curves' geometry is
+/// checked exactly by `gpu_curves_equal_their_cpu_twin`; this checks the images.)
 #[test]
 fn blurred_frames_approach_the_brute_force_reference() {
     for (scene, t, shutter, measured) in [
-        ("animated-gltf", 0.5, 0.8, [Some(0.556), Some(0.496)]),
-        ("pillars:animate=knot", 1.0, 1.0, [Some(0.666), Some(0.888)]),
-        ("atrium:animate=camera", 2.0, 0.2, [Some(0.867), None]),
+        ("animated-gltf", 0.5, 0.8, [Some(0.556), Some(0.664), Some(0.496)]),
+        ("pillars:animate=knot", 1.0, 1.0, [Some(0.666), Some(0.683), Some(0.888)]),
+        ("atrium:animate=camera", 2.0, 0.2, [Some(0.867), Some(0.849), None]),
     ] {
-        let methods = ["curves", "linear"];
+        let methods: [Variant; 3] = [
+            ("curves", &[]),
+            ("curves, coverage", &[("weights", "coverage"), ("background_weight", "1")]),
+            ("linear", &[("method", "linear")]),
+        ];
         let (sharp, blurred) = errors_against_reference(scene, t, shutter, &methods);
-        for ((method, error), measured) in methods.iter().zip(blurred).zip(measured) {
+        for (((method, _), error), measured) in methods.iter().zip(blurred).zip(measured) {
             if let Some(measured) = measured {
                 let bound = 1.0 - (1.0 - measured) / 2.0;
                 assert!(
