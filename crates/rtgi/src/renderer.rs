@@ -820,7 +820,8 @@ impl Renderer {
     pub fn render_shutter_reference(&mut self, shutter: f32, samples: u32) -> Result<HdrImage, RenderError> {
         if !(shutter.is_finite() && shutter >= 0.0) || samples == 0 {
             return Err(RenderError::InvalidSettings(format!(
-                "shutter reference: shutter {shutter} s must be finite and not negative, samples {samples} at                  least 1"
+                "shutter reference: shutter {shutter} s must be finite and not negative, samples {samples} at \
+                 least 1"
             )));
         }
         let blur = self.motion_blur_settings.take();
