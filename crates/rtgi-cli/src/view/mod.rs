@@ -46,7 +46,7 @@ pub struct ViewArgs {
     #[arg(long, value_name = "X,Y,Z,TX,TY,TZ,FOV", allow_hyphen_values = true)]
     camera: Option<String>,
     /// Run the UI actions of this file (one per line; see the module documentation of `script`:
-    /// frames N, technique NAME [K=V..], set K=V.., camera .., compare T|off, flip on|off,
+    /// frames N, technique NAME [K=V..], set K=V.., camera .., time S, shutter S, compare T|off, flip on|off,
     /// screenshot FILE, window-screenshot FILE, measure N FILE.json, quit, ...).
     #[arg(long, value_name = "FILE")]
     script: Option<PathBuf>,
