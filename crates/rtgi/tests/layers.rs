@@ -1,4 +1,4 @@
-//! Imports run one way: scene → gpu → frame → techniques → renderer. This test reads every source file
+//! Imports run one way: scene → gpu → frame → techniques → post → renderer. This test reads every source file
 //! of the library and fails when non-test code names a module of a higher layer (`crate::x` paths, in
 //! `use` declarations or inline). Test code (files named `tests.rs`/`*_tests.rs`/`test_*.rs` and
 //! everything after a file's first `#[cfg(test)]`) may reach up: tests assemble whole pipelines.
@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The layer of each top-level module; a module may import its own layer and the ones below.
-const LAYERS: [(&str, u32); 22] = [
+const LAYERS: [(&str, u32); 23] = [
     ("error", 0),
     ("stable_hash", 0),
     ("cache", 0),
@@ -23,14 +23,16 @@ const LAYERS: [(&str, u32); 22] = [
     ("gpu", 1),
     ("frame", 2),
     ("techniques", 3),
-    ("renderer", 4),
-    ("render", 4),
-    ("reference", 4),
-    ("testing", 4),
-    ("bench", 5),
+    // Post-processes of any technique's image, which the renderer applies.
+    ("post", 4),
+    ("renderer", 5),
+    ("render", 5),
+    ("reference", 5),
+    ("testing", 5),
+    ("bench", 6),
     // The crate root re-exports `SceneError`; naming it is naming `error`.
     ("SceneError", 0),
-    ("lib", 5),
+    ("lib", 6),
 ];
 
 fn source_files(dir: &Path, out: &mut Vec<PathBuf>) {
