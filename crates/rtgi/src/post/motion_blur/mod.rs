@@ -183,6 +183,7 @@ struct Curves {
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_group: wgpu::BindGroup,
     accumulation: wgpu::Texture,
+    accumulation_view: wgpu::TextureView,
 }
 
 /// The linear gather: velocities, tile maxima, taps.
@@ -419,6 +420,7 @@ impl Curves {
             resolve_pipeline: s.compute("resolve", &resolve_layout)?,
             resolve_group,
             accumulation,
+            accumulation_view,
         })
     }
 
@@ -449,11 +451,10 @@ impl Curves {
             compute::dispatch(encoder, label, &self.offset_pipeline, &list, [1, 1, 1]);
             compute::dispatch_pixels(encoder, label, &self.list_pipeline, &list, width, height);
         })?;
-        let accumulation_view = self.accumulation.create_view(&Default::default());
         profiler.pass(ctx, "motion blur curves", |encoder| {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("motion blur curves"),
-                color_attachments: &[crate::frame::cleared_target(&accumulation_view)],
+                color_attachments: &[crate::frame::cleared_target(&self.accumulation_view)],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
@@ -695,10 +696,6 @@ impl MotionBlur {
 
     pub fn settings(&self) -> &MotionBlurSettings {
         &self.settings
-    }
-
-    pub fn size(&self) -> (u32, u32) {
-        (self.width, self.height)
     }
 
     /// The blurred radiance (rgba32float), written by [`Self::record`].
