@@ -728,6 +728,7 @@ impl Loader<'_> {
             specular,
             alpha_mode,
             double_sided: m.double_sided,
+            subsurface: None,
         })
     }
 

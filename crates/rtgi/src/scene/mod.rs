@@ -20,8 +20,10 @@ pub mod builtin;
 pub mod gltf_export;
 pub mod gltf_load;
 pub mod spec;
+pub mod subsurface;
 
 pub use spec::SceneSpec;
+pub use subsurface::Subsurface;
 
 use glam::{IVec3, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 
@@ -91,6 +93,11 @@ pub struct Material {
     pub specular: f32,
     pub alpha_mode: AlphaMode,
     pub double_sided: bool,
+    /// A translucent medium under the surface, which the `subsurface` technique shades with the dipole;
+    /// every other technique (and the path tracer) sees the Lambertian `base_color`, which
+    /// [`Material::translucent`] sets to the medium's total diffuse reflectance. glTF has no
+    /// extension for it: neither the loader nor the exporter carries it.
+    pub subsurface: Option<Subsurface>,
 }
 
 impl Default for Material {
@@ -109,6 +116,7 @@ impl Default for Material {
             specular: 1.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
+            subsurface: None,
         }
     }
 }
@@ -117,6 +125,22 @@ impl Material {
     /// An exactly Lambertian material of the given linear albedo (no specular layer).
     pub fn diffuse(name: &str, albedo: Vec3) -> Self {
         Material { name: name.into(), base_color: albedo.extend(1.0), specular: 0.0, ..Default::default() }
+    }
+
+    /// A translucent dielectric over `medium`: a smooth-ish specular layer of the boundary's Fresnel
+    /// reflectance at normal incidence ((η−1)/(η+1)², as a fraction of glTF's 4 %) and, for techniques
+    /// without subsurface transport, a Lambertian albedo equal to the medium's total diffuse
+    /// reflectance, so that far from light and shadow edges every technique sees the same brightness.
+    pub fn translucent(name: &str, medium: Subsurface) -> Self {
+        let f0 = ((medium.eta - 1.0) / (medium.eta + 1.0)).powi(2);
+        Material {
+            name: name.into(),
+            base_color: medium.total_diffuse_reflectance().extend(1.0),
+            roughness: 0.4,
+            specular: f0 / 0.04,
+            subsurface: Some(medium),
+            ..Default::default()
+        }
     }
 
     /// A black surface that emits `radiance`.

@@ -23,6 +23,7 @@ pub mod photon_map;
 pub mod prt;
 pub mod radiance_cache;
 pub mod rsm;
+pub mod subsurface;
 pub mod vxgi;
 
 use std::collections::BTreeMap;
@@ -258,6 +259,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         radiance_cache::PHOTON_INFO,
         env_harmonics::INFO,
         prt::INFO,
+        subsurface::INFO,
     ]
 }
 

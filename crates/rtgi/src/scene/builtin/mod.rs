@@ -13,6 +13,7 @@ pub mod shapes;
 mod spheres_env;
 #[cfg(test)]
 mod tests;
+pub mod translucent;
 pub(crate) mod two_rooms;
 
 use crate::error::SceneError;
@@ -27,7 +28,7 @@ pub struct BuiltinScene {
     pub build: fn(&ParamValues) -> Scene,
 }
 
-static SCENES: [BuiltinScene; 8] = [
+static SCENES: [BuiltinScene; 9] = [
     BuiltinScene {
         name: "cornell",
         description: "the Cornell box from its published measurements, lit by its emissive ceiling quad",
@@ -75,6 +76,12 @@ static SCENES: [BuiltinScene; 8] = [
         description: "Sponza-like courtyard with two storeys of arcades and cloths, sunlit; detail scales to >1 M triangles",
         params: atrium::PARAMS,
         build: atrium::build,
+    },
+    BuiltinScene {
+        name: "translucent",
+        description: "a skin sphere and a marble slab (measured media) lit from front and back: subsurface scattering",
+        params: translucent::PARAMS,
+        build: translucent::build,
     },
 ];
 

@@ -131,7 +131,8 @@ fn every_scene_builds_validates_and_frames_its_subject() {
             "bumpy-glossy",
             "spheres-env",
             "pillars",
-            "atrium"
+            "atrium",
+            "translucent"
         ]
     );
     for entry in list() {
@@ -170,6 +171,22 @@ fn every_scene_builds_validates_and_frames_its_subject() {
             }
         }
     }
+}
+
+/// `translucent` offers every measured medium and gives its objects their dipoles, and techniques without
+/// subsurface transport see each as the Lambertian of its total diffuse reflectance.
+#[test]
+fn translucent_offers_every_measured_medium() {
+    let crate::params::ParamKind::Choice(choices) = super::translucent::PARAMS[0].kind else {
+        panic!("the sphere's medium is a choice");
+    };
+    let measured: Vec<&str> = crate::scene::subsurface::MEASURED_MEDIA.iter().map(|m| m.0).collect();
+    assert_eq!(choices, measured.as_slice());
+    let s = scene("translucent", &[("sphere", "ketchup"), ("enlarge", "10")]);
+    let sphere = s.materials.iter().find(|m| m.name == "sphere").expect("sphere");
+    let medium = crate::scene::Subsurface::measured("ketchup", 10.0).expect("ketchup");
+    assert_eq!(sphere.subsurface, Some(medium));
+    assert_eq!(sphere.base_color.truncate(), medium.total_diffuse_reflectance());
 }
 
 /// Every triangle has positive area and faces the way its vertex normals say (the winding and the

@@ -57,6 +57,21 @@ fn fresnel_schlick(f0: vec3f, cos_theta: f32) -> vec3f {
 
 const DIELECTRIC_F0: f32 = 0.04;
 
+// Unpolarised Fresnel reflectance of a smooth dielectric boundary of relative index `eta`, seen from
+// outside at `cos_theta` to the normal: the exact form, not Schlick's (CPU twin:
+// `scene::subsurface::fresnel_dielectric`).
+fn fresnel_dielectric(eta: f32, cos_theta: f32) -> f32 {
+    let c = saturate(cos_theta);
+    let sin2_t = (1.0 - c * c) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let ct = sqrt(1.0 - sin2_t);
+    let rs = (c - eta * ct) / (c + eta * ct);
+    let rp = (eta * c - ct) / (eta * c + ct);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
 // The BRDF's parts for unit vectors n, v (towards the viewer), l (towards the light), zero below the
 // surface: the dielectric's diffuse and specular layers and the metal's lobe, before the metallic mix.
 struct BrdfTerms {

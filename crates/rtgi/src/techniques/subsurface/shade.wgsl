@@ -1,0 +1,36 @@
+// Shading: direct light as the `direct` pass computes it, except that a translucent material's
+// Lambertian part is replaced by its multiply-scattered light L = F_t(η, θ_o)/π · Σ R_d(r) E A (the
+// dipole BSSRDF of Jensen et al. 2001 with the irradiance of the samples, as Jensen & Buhler 2002);
+// its specular layer stays. Progressive: the stochastic light samples average over frames.
+
+#import common/direct_light.wgsl
+
+@group(2) @binding(12) var output: texture_storage_2d<rgba32float, read_write>;
+
+@compute @workgroup_size(TILE, TILE)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    var s = load_gsurface(id.xy);
+    var radiance = vec3f(0.0);
+    if !s.valid {
+        radiance = environment_radiance(-s.view);
+    } else {
+        let medium = media[s.material_index];
+        let translucent = medium.translucent != 0u;
+        if translucent {
+            s.material.base_color = vec3f(0.0);
+        }
+        var rng = rng_new(id.xy, frame.frame_counter, frame.seed);
+        radiance = s.material.emission
+            + direct_light(s, gsurface_ray_origin(s), &rng, AREA_SAMPLES, ENV_SAMPLES, false);
+        let job = pixel_job[id.y * frame.size.x + id.x];
+        if translucent && job != NO_JOB {
+            let transmitted = 1.0 - fresnel_dielectric(medium.eta, dot(s.normal, s.view));
+            radiance += transmitted * INV_PI * job_light[job].rgb;
+        }
+    }
+    radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
+    textureStore(output, id.xy, vec4f(radiance, 1.0));
+}
