@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Prints docs/measurements/subsurface-lavapipe.md: the hierarchical dipole (`subsurface`), single tree against dual hierarchy, against the brute-force sum.
 
-    cargo build --release -p rtgi-cli && python3 scripts/measure-subsurface.py      # about 25 min on lavapipe
+    cargo build --release -p rtgi-cli && python3 scripts/measure-subsurface.py      # about 15 min on lavapipe
     python3 scripts/measure-subsurface.py --sizes 1920x1080 --doc subsurface-gpu    # a GPU
 
 The thesis's experiments 4, 5 and 7 (report 003 §3.7) on `translucent` (a skin sphere and a marble slab, lit
@@ -10,7 +10,7 @@ illumination sample summed at every pixel: the exact value of the same samples a
 tree (Jensen & Buhler: ρ = 0, every pixel its own traversal) and the dual hierarchy (pixel clusters of up to
 ρ / max s_p pixels, ρ = 0.75 as the paper) over ε, and a ρ sweep at ε = 0.1. Reports RMSE, relative MSE and
 FLIP against the reference, the jobs (traversals), BSSRDF evaluations and node visits per frame, and the GPU
-time of the cluster and traversal passes (the second of two frames; the samples' irradiance and the trees' aggregation
+time of the cluster and traversal passes (the mean of frames 2–4; the samples' irradiance and the trees' aggregation
 are the same for every setting and listed once).
 Options: --sizes WxH[,WxH...], --samples N, --doc NAME, --allow-dirty.
 """
@@ -43,7 +43,7 @@ def first_ms(stats, name):
 
 def main():
     args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--sizes", default="256x256,512x512")
+    args.add_argument("--sizes", default="256x256,512x512,1024x1024")
     args.add_argument("--samples", default="16384")
     args.add_argument("--doc", default="subsurface-lavapipe")
     args.add_argument("--allow-dirty", action="store_true")
@@ -53,7 +53,7 @@ def main():
     commit = m.describe()
     start_load = m.load_average()
 
-    def render(size, name, epsilon, rho, frames="2"):
+    def render(size, name, epsilon, rho, frames="4"):
         out = OUT / f"{size}-{name}.exr"
         stats_path = OUT / f"{size}-{name}.json"
         m.log(SCRIPT, f"{size}: {name}")
@@ -93,7 +93,7 @@ def main():
         "sample at every pixel, i.e. the exact sum these settings approximate (the dipole's own error and the "
         "samples' quadrature error are not in these figures). Errors over the whole image (the pixels that "
         "show no translucent object are identical in all images). Times: GPU timestamps, mean of the steady "
-        "frame (the second of 2; the first includes compiling the pipelines)" + (". On lavapipe compare the rows with each other, not with GPU figures." if cpu else "."),
+        "frames (the last 3 of 4; the first includes compiling the pipelines)" + (". On lavapipe compare the rows with each other, not with GPU figures." if cpu else "."),
     ]
     fmt = lambda v, d=2: "–" if v is None else f"{v:.{d}f}"  # noqa: E731
     for size, ref_stats, truncated, rows in sections:

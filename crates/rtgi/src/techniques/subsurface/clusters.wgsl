@@ -77,7 +77,10 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(local_invocation_id) 
         let s = load_gsurface(id.xy);
         key = translucent_key(id.xy, s);
         if key != 0u {
-            rate = sampling_rate(id.xy, s, key);
+            // The rate only shapes clusters: without them (ρ = 0, the single tree) it is not needed.
+            if RHO > 0.0 {
+                rate = sampling_rate(id.xy, s, key);
+            }
             position = s.position;
             atomicAdd(&counters[COUNTER_PIXELS], 1u);
         }
