@@ -114,6 +114,17 @@ pub fn moving_fixture_at(source: &crate::scene::Scene, t: f32) -> Fixture {
     f
 }
 
+/// Moves the meshes `moved` of `f` (a [`moving_fixture_at`] of `source` at time `from`) in place to
+/// their pose at time `to`: the fixture's scene is posed anew and its GPU scene moved, as the renderer
+/// does; the technique must be told ([`super::SceneChange::Geometry`]) and the inputs redrawn.
+pub fn move_meshes_to(f: &mut Fixture, source: &crate::scene::Scene, from: f32, to: f32, moved: &[usize]) {
+    let (then, now) = (source.pose_at(from), source.pose_at(to));
+    let from_upload: Vec<glam::Mat4> =
+        now.mesh_transforms.iter().zip(&then.mesh_transforms).map(|(n, t)| *n * t.inverse()).collect();
+    f.scene = source.posed(to);
+    assert!(f.gpu_scene.move_meshes(&f.ctx, &f.scene, moved, &from_upload).expect("move"));
+}
+
 /// Renders the frame inputs (G-buffer, shadow maps) again, after the scene moved.
 pub fn redraw_inputs(f: &mut Fixture) {
     let mut profiler = Profiler::new(&f.ctx, TimingMode::Passes);

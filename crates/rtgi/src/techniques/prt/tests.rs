@@ -6,7 +6,7 @@ use crate::gpu::scene::{GpuVertex, oct_decode};
 use crate::scene::{Environment, Material};
 use crate::shaders::validate;
 use crate::techniques::fixture::{
-    Fixture, fixture_of, mean_relative_difference, moving_fixture_at, redraw_inputs,
+    Fixture, fixture_of, mean_relative_difference, move_meshes_to, moving_fixture_at, redraw_inputs,
 };
 
 pub(super) fn params(settings: &[(&str, &str)]) -> ParamValues {
@@ -473,15 +473,7 @@ fn self_transfer_turns_with_its_mesh() {
     assert!(prt.self_transfer.is_some(), "moving meshes get self-transfer by default");
     let still = f.render_rgb(&mut prt, 1);
 
-    let (from, to) = (source.pose_at(0.0), source.pose_at(2.0));
-    let from_upload: Vec<glam::Mat4> = to
-        .mesh_transforms
-        .iter()
-        .zip(&from.mesh_transforms)
-        .map(|(now, then)| *now * then.inverse())
-        .collect();
-    f.scene = source.posed(2.0);
-    assert!(f.gpu_scene.move_meshes(&f.ctx, &f.scene, &[2], &from_upload).expect("move"));
+    move_meshes_to(&mut f, &source, 0.0, 2.0, &[2]);
     prt.scene_changed(&f.ctx, &f.gpu_scene, crate::techniques::SceneChange::Geometry).expect("change");
     redraw_inputs(&mut f);
     let turned = f.render_rgb(&mut prt, 1);

@@ -13,7 +13,7 @@ use crate::scene::{Camera, Light, Material, Subsurface as Medium};
 use crate::shaders::layout::{assert_layout, assert_u32_constants};
 use crate::shaders::validate;
 use crate::techniques::fixture::{
-    fixture_of, fixture_with, mean_relative_difference, moving_fixture_at, redraw_inputs,
+    fixture_of, fixture_with, mean_relative_difference, move_meshes_to, moving_fixture_at, redraw_inputs,
 };
 
 fn test_defines() -> Defines {
@@ -252,15 +252,7 @@ fn samples_ride_on_moving_meshes() {
     let mut f = moving_fixture_at(&source, 0.0);
     let mut sss = Subsurface::new(&f.setup(&p)).expect("subsurface");
     let still = f.render_rgb(&mut sss, 1);
-    let (from, to) = (source.pose_at(0.0), source.pose_at(1.5));
-    let from_upload: Vec<glam::Mat4> = to
-        .mesh_transforms
-        .iter()
-        .zip(&from.mesh_transforms)
-        .map(|(now, then)| *now * then.inverse())
-        .collect();
-    f.scene = source.posed(1.5);
-    assert!(f.gpu_scene.move_meshes(&f.ctx, &f.scene, &[2], &from_upload).expect("move"));
+    move_meshes_to(&mut f, &source, 0.0, 1.5, &[2]);
     assert!(sss.scene_changed(&f.ctx, &f.gpu_scene, SceneChange::Geometry).expect("change"));
     redraw_inputs(&mut f);
     let moved = f.render_rgb(&mut sss, 1);
