@@ -41,6 +41,9 @@ pub const ENVIRONMENT_NODE_KEY: &str = "rtgi_environment_node";
 /// Key in `scenes[0].extras` holding the index of the animation that plays (glTF has no such notion;
 /// without it the first one plays).
 pub const ACTIVE_ANIMATION_KEY: &str = "rtgi_active_animation";
+/// Key in a material's `extras` holding its [`crate::scene::Subsurface`] medium (see `SubsurfaceJson`),
+/// which no glTF extension describes.
+pub const SUBSURFACE_KEY: &str = "rtgi_subsurface";
 /// Key in a camera node's `extras` holding the distance from the camera to its look-at target, which
 /// glTF cameras do not have.
 pub const TARGET_DISTANCE_KEY: &str = "rtgi_target_distance";
@@ -69,6 +72,26 @@ pub(crate) enum EnvironmentJson {
 
 fn one() -> f32 {
     1.0
+}
+
+/// A translucent medium in a material's extras: σ_a and σ_s' per metre (linear RGB) and the boundary's
+/// relative index of refraction.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct SubsurfaceJson {
+    pub absorption: [f32; 3],
+    pub reduced_scattering: [f32; 3],
+    pub eta: f32,
+}
+
+impl SubsurfaceJson {
+    pub(crate) fn medium(self) -> crate::scene::Subsurface {
+        crate::scene::Subsurface {
+            absorption: self.absorption.into(),
+            reduced_scattering: self.reduced_scattering.into(),
+            eta: self.eta,
+        }
+    }
 }
 
 impl EnvironmentJson {
@@ -210,6 +233,17 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, String> {
             emissive_texture: info(&m.emissive_texture),
             emissive_factor: json::material::EmissiveFactor(emissive_factor),
             extensions,
+            extras: match m.subsurface {
+                Some(medium) => Some(extras(&[(
+                    SUBSURFACE_KEY,
+                    json_text(&SubsurfaceJson {
+                        absorption: medium.absorption.to_array(),
+                        reduced_scattering: medium.reduced_scattering.to_array(),
+                        eta: medium.eta,
+                    })?,
+                )])?),
+                None => None,
+            },
             ..Default::default()
         });
     }

@@ -30,7 +30,7 @@ use serde_json::Value;
 use super::animation::{AnimNode, AnimationClip, Channel, Interpolation, Property, Sampler, Trs};
 use super::gltf_export::{
     ACTIVE_ANIMATION_KEY, ENVIRONMENT_KEY, ENVIRONMENT_NODE_KEY, ENVIRONMENT_ROTATION_KEY, EnvironmentJson,
-    SUN_NODE_KEY, TARGET_DISTANCE_KEY,
+    SUBSURFACE_KEY, SUN_NODE_KEY, SubsurfaceJson, TARGET_DISTANCE_KEY,
 };
 use super::{
     Aabb, AlphaMode, Camera, Environment, EnvironmentMap, Light, Material, Mesh, Scene, SceneAnimation,
@@ -728,8 +728,22 @@ impl Loader<'_> {
             specular,
             alpha_mode,
             double_sided: m.double_sided,
-            subsurface: None,
+            subsurface: self.subsurface(index, &label)?,
         })
+    }
+
+    /// The translucent medium rtgi's exporter recorded in material `index`'s extras, if any; a malformed
+    /// one is an error naming the material.
+    fn subsurface(&self, index: usize, label: &str) -> Result<Option<crate::scene::Subsurface>, String> {
+        let value = &self.raw["materials"][index]["extras"][SUBSURFACE_KEY];
+        if value.is_null() {
+            return Ok(None);
+        }
+        let medium = serde_json::from_value::<SubsurfaceJson>(value.clone())
+            .map_err(|e| format!("{label}: '{SUBSURFACE_KEY}' extras: {e}"))?
+            .medium();
+        medium.check().map_err(|e| format!("{label}: '{SUBSURFACE_KEY}' extras: {e}"))?;
+        Ok(Some(medium))
     }
 
     /// Resolves a material's texture slot to an rtgi texture, decoding the image on first use.

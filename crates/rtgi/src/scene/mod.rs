@@ -96,7 +96,8 @@ pub struct Material {
     /// A translucent medium under the surface, which the `subsurface` technique shades with the dipole;
     /// every other technique (and the path tracer) sees the Lambertian `base_color`, which
     /// [`Material::translucent`] sets to the medium's total diffuse reflectance. glTF has no
-    /// extension for it: neither the loader nor the exporter carries it.
+    /// extension for it: rtgi's exporter writes it in the material's `extras` (`rtgi_subsurface`:
+    /// `absorption`, `reduced_scattering` per metre, `eta`) and the loader reads it back.
     pub subsurface: Option<Subsurface>,
 }
 

@@ -164,6 +164,21 @@ fn compare_material(d: &mut Diffs, label: &str, a: &Scene, x: &Material, b: &Sce
         }
     }
     d.eq(&format!("{label} double_sided"), x.double_sided, y.double_sided);
+    match (x.subsurface, y.subsurface) {
+        (Some(p), Some(q)) => {
+            d.vec3(&format!("{label} subsurface absorption"), p.absorption, q.absorption, FACTOR_TOL);
+            d.vec3(
+                &format!("{label} subsurface reduced scattering"),
+                p.reduced_scattering,
+                q.reduced_scattering,
+                FACTOR_TOL,
+            );
+            d.f32(&format!("{label} subsurface eta"), p.eta, q.eta, FACTOR_TOL);
+        }
+        (p, q) => {
+            d.eq(&format!("{label} subsurface"), p.is_some(), q.is_some());
+        }
+    }
     let slots = [
         ("base_color_texture", x.base_color_texture, y.base_color_texture),
         ("metallic_roughness_texture", x.metallic_roughness_texture, y.metallic_roughness_texture),

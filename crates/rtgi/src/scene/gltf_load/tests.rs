@@ -653,3 +653,39 @@ fn scene_of_other_tools_needs_no_rtgi_extras() {
     let dir_a = (original.target - original.position).normalize();
     assert!((cam.target - cam.position).abs_diff_eq(dir_a, 1e-5));
 }
+
+/// A translucent medium travels in a material's extras (`rtgi_subsurface`); a malformed or
+/// meaningless one is an error naming the material.
+#[test]
+fn subsurface_extras_load_and_bad_ones_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = triangle_gltf(&[0, 1, 2]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let medium =
+        json!({ "absorption": [1.0, 2.0, 3.0], "reduced_scattering": [40.0, 50.0, 60.0], "eta": 1.3 });
+    doc["materials"] = json!([{ "name": "wax", "extras": { "rtgi_subsurface": medium } }]);
+    let path = write_json(dir.path(), "wax.gltf", &doc);
+    let m = &load(&path).unwrap().materials[0];
+    let expected = crate::scene::Subsurface {
+        absorption: Vec3::new(1.0, 2.0, 3.0),
+        reduced_scattering: Vec3::new(40.0, 50.0, 60.0),
+        eta: 1.3,
+    };
+    assert_eq!(m.subsurface, Some(expected));
+    for (bad, message) in [
+        (
+            json!({ "absorption": [1.0, 2.0], "reduced_scattering": [1.0, 1.0, 1.0], "eta": 1.3 }),
+            "array of length 3",
+        ),
+        (json!({ "absorption": [1.0, 2.0, 3.0], "reduced_scattering": [1.0, 1.0, 1.0], "eta": 0.5 }), "≥ 1"),
+        (
+            json!({ "absorption": [-1.0, 2.0, 3.0], "reduced_scattering": [1.0, 1.0, 1.0], "eta": 1.3 }),
+            "non-negative",
+        ),
+        (json!("wax"), "rtgi_subsurface"),
+    ] {
+        doc["materials"][0]["extras"]["rtgi_subsurface"] = bad;
+        let path = write_json(dir.path(), "bad.gltf", &doc);
+        assert_contains(&load_err(&path), &["material 'wax'", "rtgi_subsurface", message]);
+    }
+}
