@@ -7,12 +7,17 @@
 
 #import common/brdf.wgsl
 
-// A point on a translucent surface standing for `area` square metres of it.
+// A point on a translucent surface standing for `area` square metres of it, at barycentrics (u, v) of
+// the second and third vertices of the scene's `triangle`.
 struct IlluminationSample {
     position: vec3f,
     area: f32,
     normal: vec3f,
     mesh: u32,
+    triangle: u32,
+    u: f32,
+    v: f32,
+    _pad: u32,
 }
 
 // A node of a mesh's illumination tree: the bounding box of its samples, which are samples
@@ -92,9 +97,7 @@ const COUNTER_TRUNCATED: u32 = 4u;
 @group(2) @binding(10) var<storage, read_write> counters: array<atomic<u32>, 5>;
 // Nodes in the order the tree pass aggregates them: deepest level first.
 @group(2) @binding(11) var<storage, read_write> node_order: array<u32>;
-// Binding 12 is the output (shade.wgsl). Per sample: its triangle in the scene (bits of x) and the
-// barycentrics of that triangle's second and third vertices (y, z).
-@group(2) @binding(13) var<storage, read_write> anchors: array<vec4f>;
+// Binding 12 is the output (shade.wgsl).
 
 // The dipole's diffuse reflectance profile R_d(r) (Jensen et al. 2001; CPU twin
 // `scene::subsurface::Subsurface::profile`).

@@ -111,9 +111,11 @@ fn main(
     var key = 0u;
     var rate = 0.0;
     var position = vec3f(0.0);
+    var material = 0u;
     if inside {
         let s = load_gsurface(id.xy);
         key = translucent_key(id.xy, s);
+        material = s.material_index;
         if key != 0u {
             // The rate only shapes clusters: without them (ρ = 0, the single tree) it is not needed.
             if RHO > 0.0 {
@@ -188,8 +190,7 @@ fn main(
             }
         }
         let job = atomicAdd(&counters[COUNTER_JOBS], 1u);
-        let s = load_gsurface(id.xy);
-        jobs[job] = ClusterJob(center, radius, key - 1u, s.material_index, side * side, 0u);
+        jobs[job] = ClusterJob(center, radius, key - 1u, material, side * side, 0u);
         tile_job[me] = job;
     }
     workgroupBarrier();

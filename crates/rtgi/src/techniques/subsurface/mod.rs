@@ -204,13 +204,13 @@ impl Subsurface {
             }
         }
         let (media, angular) = media(setup.scene);
-        let anchors: Vec<[f32; 4]> = trees
-            .anchors
+        // Triangles within each mesh become triangles of the GPU scene.
+        let samples: Vec<samples::IlluminationSample> = trees
+            .samples
             .iter()
-            .zip(&trees.samples)
-            .map(|(&(t, u, v), sample)| {
-                let first = setup.gpu_scene.mesh_ranges[sample.mesh as usize].start / 3;
-                [f32::from_bits(first + t), u, v, 0.0]
+            .map(|s| samples::IlluminationSample {
+                triangle: setup.gpu_scene.mesh_ranges[s.mesh as usize].start / 3 + s.triangle,
+                ..*s
             })
             .collect();
         let (w, h) = (setup.frame.width, setup.frame.height);
@@ -223,7 +223,7 @@ impl Subsurface {
         };
         let zeroed = |label: &str, size: u64| BufferBuilder::new(label, size).storage().copy().build(ctx);
         let buffers = [
-            storage("subsurface samples", bytemuck::cast_slice(&trees.samples))?,
+            storage("subsurface samples", bytemuck::cast_slice(&samples))?,
             zeroed("subsurface sample irradiance", u64::from(sample_count) * 16)?,
             storage("subsurface nodes", bytemuck::cast_slice(&trees.nodes))?,
             zeroed("subsurface node light", u64::from(node_count) * NODE_LIGHT_BYTES)?,
@@ -235,19 +235,21 @@ impl Subsurface {
             zeroed("subsurface pixel jobs", u64::from(pixels) * 4)?,
             zeroed("subsurface counters", 4 * COUNTERS.len() as u64)?,
             storage("subsurface node order", bytemuck::cast_slice(&trees.order))?,
-            storage("subsurface sample anchors", bytemuck::cast_slice(&anchors))?,
         ];
         let bytes = buffers.iter().map(wgpu::Buffer::size).sum();
-        // Bindings 0..=11 and 13 are the buffers in order, 12 the output.
-        let binding = |i: usize| if i < 12 { i as u32 } else { i as u32 + 1 };
+        // The buffers in order, then the output.
         let mut entries: Vec<wgpu::BindGroupLayoutEntry> =
-            (0..buffers.len()).map(|i| storage_buffer_entry(binding(i), false)).collect();
-        entries.insert(12, storage_texture_entry(12, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite));
+            (0..buffers.len() as u32).map(|b| storage_buffer_entry(b, false)).collect();
+        entries.push(storage_texture_entry(
+            buffers.len() as u32,
+            OUTPUT_FORMAT,
+            wgpu::StorageTextureAccess::ReadWrite,
+        ));
         let layout = compute::layout(ctx, "subsurface", &entries);
         let output = setup.output.create_view(&Default::default());
         let mut resources: Vec<wgpu::BindingResource> =
             buffers.iter().map(|b| b.as_entire_binding()).collect();
-        resources.insert(12, wgpu::BindingResource::TextureView(&output));
+        resources.push(wgpu::BindingResource::TextureView(&output));
         let group = compute::bind_group(ctx, "subsurface", &layout, &resources);
 
         let levels: Vec<Level> =

@@ -8,12 +8,12 @@
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let i = indirect_linear_index(id, groups, 64u);
-    if i >= arrayLength(&anchors) {
+    if i >= arrayLength(&samples) {
         return;
     }
-    let a = anchors[i];
-    let t = triangle_vertices(bitcast<u32>(a.x));
-    let w = vec3f(1.0 - a.y - a.z, a.y, a.z);
+    let s = samples[i];
+    let t = triangle_vertices(s.triangle);
+    let w = vec3f(1.0 - s.u - s.v, s.u, s.v);
     samples[i].position = t[0].position * w.x + t[1].position * w.y + t[2].position * w.z;
     let n = vertex_normal(t[0]) * w.x + vertex_normal(t[1]) * w.y + vertex_normal(t[2]) * w.z;
     let geometric = cross(t[1].position - t[0].position, t[2].position - t[0].position);

@@ -7,7 +7,10 @@ use glam::{Vec2, Vec3};
 use crate::scene::Scene;
 use crate::scene::builtin::shapes::hash_unit;
 
-/// A point on a translucent surface standing for `area` m² of it (WGSL `IlluminationSample`).
+/// A point on a translucent surface standing for `area` m² of it (WGSL `IlluminationSample`), and
+/// where it sits: barycentrics (u, v) of the second and third vertices of `triangle`, so that the GPU
+/// can move it with its mesh. `triangle` counts within the mesh here; the technique makes it an index
+/// into the GPU scene's triangles when it uploads the samples.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct IlluminationSample {
@@ -15,6 +18,10 @@ pub struct IlluminationSample {
     pub area: f32,
     pub normal: [f32; 3],
     pub mesh: u32,
+    pub triangle: u32,
+    pub u: f32,
+    pub v: f32,
+    pub _pad: u32,
 }
 
 /// A node of an illumination tree (WGSL `TreeNode`): covers samples `first..first + count`; its left
@@ -44,9 +51,6 @@ pub const NO_NODE: u32 = u32::MAX;
 pub struct IlluminationTrees {
     /// In tree order: every node's samples are contiguous.
     pub samples: Vec<IlluminationSample>,
-    /// Per sample, where it sits on its mesh: (triangle within the mesh, barycentrics u, v of its
-    /// second and third vertices), so that the GPU can move it with the mesh.
-    pub anchors: Vec<(u32, f32, f32)>,
     pub nodes: Vec<TreeNode>,
     /// Per scene mesh: its root node or [`NO_NODE`].
     pub roots: Vec<u32>,
@@ -166,7 +170,6 @@ impl IlluminationTrees {
             .collect();
         let total_area: f64 = areas.iter().flatten().map(|&a| f64::from(a)).sum();
         let mut trees = IlluminationTrees { roots: vec![NO_NODE; scene.meshes.len()], ..Default::default() };
-        let mut depths: Vec<u32> = Vec::new();
         for (&m, tri_areas) in translucent.iter().zip(&areas) {
             let mesh = &scene.meshes[m];
             let area: f64 = tri_areas.iter().map(|&a| f64::from(a)).sum();
@@ -209,12 +212,15 @@ impl IlluminationTrees {
                 let nrm: Vec3 = (0..3).map(|i| mesh.normals[idx[i] as usize] * w[i]).sum();
                 let [a, b, c] = [0, 1, 2].map(|i| mesh.positions[idx[i] as usize]);
                 let nrm = nrm.try_normalize().or((b - a).cross(c - a).try_normalize()).unwrap_or(Vec3::Y);
-                trees.anchors.push((t as u32, uv.x, uv.y));
                 trees.samples.push(IlluminationSample {
                     position: points[k].to_array(),
                     area: (area / f64::from(n)) as f32,
                     normal: nrm.to_array(),
                     mesh: m as u32,
+                    triangle: t as u32,
+                    u: uv.x,
+                    v: uv.y,
+                    _pad: 0,
                 });
             }
             let medium = scene.materials[mesh.material as usize].subsurface.expect("translucent");
@@ -225,12 +231,14 @@ impl IlluminationTrees {
             ));
             trees.roots[m] = trees.nodes.len() as u32;
             let end = trees.samples.len();
-            trees.split(start, end, 0, &mut depths);
+            trees.split(start, end, 0);
         }
-        let deepest = depths.iter().copied().max().unwrap_or(0);
+        let deepest = trees.nodes.iter().map(|n| n.depth).max().unwrap_or(0);
         for depth in (0..=deepest).rev() {
             let offset = trees.order.len() as u32;
-            trees.order.extend((0..trees.nodes.len() as u32).filter(|&i| depths[i as usize] == depth));
+            trees
+                .order
+                .extend((0..trees.nodes.len() as u32).filter(|&i| trees.nodes[i as usize].depth == depth));
             trees.levels.push((offset, trees.order.len() as u32 - offset));
         }
         trees
@@ -238,10 +246,9 @@ impl IlluminationTrees {
 
     /// Builds the subtree over samples `first..end` (reordering them), median split along the longest
     /// axis of their bounds, down to one sample per leaf.
-    fn split(&mut self, first: usize, end: usize, depth: u32, depths: &mut Vec<u32>) -> u32 {
+    fn split(&mut self, first: usize, end: usize, depth: u32) -> u32 {
         let index = self.nodes.len() as u32;
         let items = &mut self.samples[first..end];
-        let anchors = &mut self.anchors[first..end];
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         let mut area = 0.0;
         for s in items.iter() {
@@ -260,20 +267,12 @@ impl IlluminationTrees {
             depth,
             _pad: 0,
         });
-        depths.push(depth);
         if count > 1 {
             let axis = (hi - lo).max_position();
             let mid = (end - first) / 2;
-            // Samples and their anchors are reordered together (one permutation of both).
-            let mut pairs: Vec<(IlluminationSample, (u32, f32, f32))> =
-                items.iter().copied().zip(anchors.iter().copied()).collect();
-            pairs.select_nth_unstable_by(mid, |a, b| a.0.position[axis].total_cmp(&b.0.position[axis]));
-            for (k, (sample, anchor)) in pairs.into_iter().enumerate() {
-                items[k] = sample;
-                anchors[k] = anchor;
-            }
-            self.split(first, first + mid, depth + 1, depths);
-            let right = self.split(first + mid, end, depth + 1, depths);
+            items.select_nth_unstable_by(mid, |a, b| a.position[axis].total_cmp(&b.position[axis]));
+            self.split(first, first + mid, depth + 1);
+            let right = self.split(first + mid, end, depth + 1);
             self.nodes[index as usize].right = right;
         }
         index
