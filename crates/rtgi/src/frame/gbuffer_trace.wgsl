@@ -4,6 +4,7 @@
 
 #import common/gbuffer.wgsl
 #import common/mesh_of_triangle.wgsl
+#import common/ray_differentials.wgsl
 
 // Per mesh: current world position -> the previous frame's (object motion; identity when static).
 @group(1) @binding(1) var<storage, read> mesh_motion: array<mat4x4f>;
@@ -17,36 +18,11 @@
 @group(1) @binding(8) var out_motion: texture_storage_2d<rg32float, write>;
 @group(1) @binding(9) var out_instance: texture_storage_2d<r32uint, write>;
 
-// The mip level the raster pass's screen-space derivatives would pick at a primary hit: the ray
-// differentials of one pixel's step in x and in y (Igehy 1999) carried to the triangle's plane, turned
-// into texture-coordinate steps through the barycentric differentials.
+// The mip level the raster pass's screen-space derivatives would pick at a primary hit.
 fn primary_texture_lod(triangle: u32, xy: vec2f, dir: vec3f, t: f32) -> f32 {
-    let v = triangle_vertices(triangle);
-    let e1 = v[1].position - v[0].position;
-    let e2 = v[2].position - v[0].position;
-    let n = cross(e1, e2);
-    let dn = dot(dir, n);
-    let g11 = dot(e1, e1);
-    let g12 = dot(e1, e2);
-    let g22 = dot(e2, e2);
-    let det = g11 * g22 - g12 * g12;
-    if abs(dn) < 1e-30 || det < 1e-30 {
-        return 0.0;
-    }
-    let duv1 = v[1].uv - v[0].uv;
-    let duv2 = v[2].uv - v[0].uv;
     let size = vec2f(textureDimensions(textures_srgb));
-    var widest = 0.0;
-    for (var axis = 0u; axis < 2u; axis++) {
-        let step = select(vec2f(0.0, 1.0), vec2f(1.0, 0.0), axis == 0u);
-        let dd = primary_ray_through(xy + step) - dir;
-        // The neighbouring ray's hit on the plane, to first order.
-        let dp = t * (dd - dir * (dot(dd, n) / dn));
-        let b1 = dot(e1, dp);
-        let b2 = dot(e2, dp);
-        let duv = ((g22 * b1 - g12 * b2) * duv1 + (g11 * b2 - g12 * b1) * duv2) / det * size;
-        widest = max(widest, dot(duv, duv));
-    }
+    let j = primary_uv_differentials(triangle, xy, dir, t);
+    let widest = max(dot(j[0] * size, j[0] * size), dot(j[1] * size, j[1] * size));
     return select(0.0, max(0.0, 0.5 * log2(widest)), widest > 0.0 && widest < FLT_MAX);
 }
 

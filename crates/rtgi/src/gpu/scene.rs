@@ -257,6 +257,8 @@ pub struct GpuScene {
     pub environment_power: f32,
     /// Bumped whenever [`GpuScene::update_environment`] changes the environment.
     pub environment_version: u64,
+    /// Side of the linear (normal, metallic-roughness) texture array's layers: see [`texture_layer_image`].
+    pub linear_texture_size: u32,
     info_buffer: wgpu::Buffer,
     environment: wgpu::Texture,
     environment_cdf: wgpu::Texture,
@@ -301,6 +303,32 @@ fn mip_chain(img: image::RgbaImage, levels: u32) -> Vec<image::RgbaImage> {
     out
 }
 
+/// The side of a texture array holding `layers` (indices into `Scene::textures`): every layer shares
+/// it, the largest texture's side rounded up to a power of two, at most `MAX_TEXTURE_SIZE`.
+pub fn texture_array_size(scene: &Scene, layers: &[u32]) -> u32 {
+    layers
+        .iter()
+        .map(|&t| scene.textures[t as usize].width.max(scene.textures[t as usize].height))
+        .max()
+        .unwrap_or(1)
+        .next_power_of_two()
+        .min(MAX_TEXTURE_SIZE)
+}
+
+/// Texture `texture` of the scene as its array layer's level 0 holds it: resampled to `size`² (all
+/// layers of an array share one size). CPU passes that must see the texels the GPU samples (the glint
+/// histograms) read it from here.
+pub fn texture_layer_image(scene: &Scene, texture: u32, size: u32) -> image::RgbaImage {
+    let tex = &scene.textures[texture as usize];
+    let src = image::RgbaImage::from_raw(tex.width, tex.height, tex.rgba8.clone())
+        .unwrap_or_else(|| image::RgbaImage::from_pixel(1, 1, image::Rgba([255; 4])));
+    if src.width() == size && src.height() == size {
+        src
+    } else {
+        image::imageops::resize(&src, size, size, image::imageops::FilterType::Triangle)
+    }
+}
+
 fn create_texture_array(
     ctx: &GpuContext,
     scene: &Scene,
@@ -308,13 +336,7 @@ fn create_texture_array(
     format: wgpu::TextureFormat,
     warnings: &mut Vec<String>,
 ) -> (wgpu::Texture, u64) {
-    let size = layers
-        .iter()
-        .map(|&t| scene.textures[t as usize].width.max(scene.textures[t as usize].height))
-        .max()
-        .unwrap_or(1)
-        .next_power_of_two()
-        .min(MAX_TEXTURE_SIZE);
+    let size = texture_array_size(scene, layers);
     let levels = size.ilog2() + 1;
     let count = layers.len().max(1) as u32;
     let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
@@ -329,32 +351,21 @@ fn create_texture_array(
     });
     let mut bytes = 0u64;
     // An empty array still needs one layer to bind; white is the neutral texture.
-    let sources: Vec<image::RgbaImage> = if layers.is_empty() {
+    let images: Vec<image::RgbaImage> = if layers.is_empty() {
         vec![image::RgbaImage::from_pixel(1, 1, image::Rgba([255; 4]))]
     } else {
-        layers
-            .iter()
-            .map(|&t| {
-                let tex = &scene.textures[t as usize];
-                image::RgbaImage::from_raw(tex.width, tex.height, tex.rgba8.clone())
-                    .unwrap_or_else(|| image::RgbaImage::from_pixel(1, 1, image::Rgba([255; 4])))
-            })
-            .collect()
+        layers.iter().map(|&t| texture_layer_image(scene, t, size)).collect()
     };
-    for (layer, src) in sources.into_iter().enumerate() {
-        if src.width().max(src.height()) > MAX_TEXTURE_SIZE {
-            warnings.push(format!(
-                "texture layer {layer}: {}x{} downsampled to {size}x{size} (MAX_TEXTURE_SIZE)",
-                src.width(),
-                src.height()
-            ));
+    for (layer, base) in images.into_iter().enumerate() {
+        if let Some(&t) = layers.get(layer) {
+            let tex = &scene.textures[t as usize];
+            if tex.width.max(tex.height) > MAX_TEXTURE_SIZE {
+                warnings.push(format!(
+                    "texture layer {layer}: {}x{} downsampled to {size}x{size} (MAX_TEXTURE_SIZE)",
+                    tex.width, tex.height
+                ));
+            }
         }
-        // All layers of an array share one size: resample every image to it.
-        let base = if src.width() == size && src.height() == size {
-            src
-        } else {
-            image::imageops::resize(&src, size, size, image::imageops::FilterType::Triangle)
-        };
         for (level, img) in mip_chain(base, levels).iter().enumerate() {
             ctx.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
@@ -978,6 +989,7 @@ impl GpuScene {
             warnings,
             environment_power,
             environment_version: 0,
+            linear_texture_size: texture_array_size(scene, &linear_layers),
             info_buffer,
             environment: env,
             environment_cdf: env_cdf_table,

@@ -36,6 +36,7 @@ pub const COMMON_MODULES: &[(&str, &str)] = &[
     ("common/gbuffer.wgsl", include_str!("common/gbuffer.wgsl")),
     ("common/mesh_of_triangle.wgsl", include_str!("common/mesh_of_triangle.wgsl")),
     ("common/indirect.wgsl", include_str!("common/indirect.wgsl")),
+    ("common/ray_differentials.wgsl", include_str!("common/ray_differentials.wgsl")),
 ];
 
 /// Errors of shader composition (always a bug in rtgi's shaders, but reported, not panicked).

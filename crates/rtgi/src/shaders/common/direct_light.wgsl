@@ -32,26 +32,46 @@ struct UnshadowedSample {
     distance: f32,
 }
 
-// One sample of light from emissive triangles, leaving from `origin` (off the surface), unshadowed.
-fn emissive_sample_unshadowed(s: GSurface, origin: vec3f, u: vec3f) -> UnshadowedSample {
+// A light sample before any BRDF: the direction and length of its shadow ray and its radiance over
+// the sampling density (zero for a failed sample), for shaders whose reflectance is not `brdf_eval`'s.
+struct IncidentSample {
+    direction: vec3f,
+    distance: f32,
+    weight: vec3f,
+}
+
+// One sample of light from emissive triangles seen from `origin`.
+fn emissive_incident(origin: vec3f, u: vec3f) -> IncidentSample {
     let ls = sample_area_light(origin, u);
-    var r = UnshadowedSample(vec3f(0.0), ls.direction, ls.distance * (1.0 - 1e-3));
-    let cos_surf = dot(s.normal, ls.direction);
-    if ls.pdf > 0.0 && cos_surf > 0.0 && dot(s.geometric_normal, ls.direction) > 0.0 {
-        r.value = brdf_eval(s.material, s.normal, s.view, ls.direction) * ls.radiance * cos_surf / ls.pdf;
+    let weight = select(vec3f(0.0), ls.radiance / ls.pdf, ls.pdf > 0.0);
+    return IncidentSample(ls.direction, ls.distance * (1.0 - 1e-3), weight);
+}
+
+// One sample of the environment (importance-sampled for maps, cosine-weighted about n otherwise).
+fn environment_incident(n: vec3f, u: vec2f) -> IncidentSample {
+    let es = sample_environment_light(n, u);
+    let weight = select(vec3f(0.0), es.radiance / es.pdf, es.pdf > 0.0);
+    return IncidentSample(es.direction, FLT_MAX, weight);
+}
+
+// An incident sample reflected by s's BRDF towards s.view.
+fn reflect_incident(s: GSurface, i: IncidentSample) -> UnshadowedSample {
+    var r = UnshadowedSample(vec3f(0.0), i.direction, i.distance);
+    let cos_theta = dot(s.normal, i.direction);
+    if cos_theta > 0.0 && dot(s.geometric_normal, i.direction) > 0.0 && max3(i.weight) > 0.0 {
+        r.value = brdf_eval(s.material, s.normal, s.view, i.direction) * i.weight * cos_theta;
     }
     return r;
 }
 
+// One sample of light from emissive triangles, leaving from `origin` (off the surface), unshadowed.
+fn emissive_sample_unshadowed(s: GSurface, origin: vec3f, u: vec3f) -> UnshadowedSample {
+    return reflect_incident(s, emissive_incident(origin, u));
+}
+
 // One sample of the environment (importance-sampled for maps, cosine-weighted otherwise), unshadowed.
 fn environment_sample_unshadowed(s: GSurface, u: vec2f) -> UnshadowedSample {
-    let es = sample_environment_light(s.normal, u);
-    var r = UnshadowedSample(vec3f(0.0), es.direction, FLT_MAX);
-    let cos_theta = dot(s.normal, es.direction);
-    if es.pdf > 0.0 && cos_theta > 0.0 && dot(s.geometric_normal, es.direction) > 0.0 {
-        r.value = brdf_eval(s.material, s.normal, s.view, es.direction) * es.radiance * cos_theta / es.pdf;
-    }
-    return r;
+    return reflect_incident(s, environment_incident(s.normal, u));
 }
 
 // The light an analytic light reflects off s towards s.view, unshadowed.
@@ -88,6 +108,14 @@ fn direct_environment_sample(s: GSurface, origin: vec3f, u: vec2f) -> vec3f {
     return sample.value * sample_visibility(sample, origin);
 }
 
+// Whether analytic `light` reaches s, by its shadow map or (`traced`) the sample's shadow ray.
+fn analytic_visibility(light: Light, s: GSurface, sample: UnshadowedSample, origin: vec3f, traced: bool) -> f32 {
+    if traced {
+        return sample_visibility(sample, origin);
+    }
+    return shadow_visibility(light, s.position, s.geometric_normal);
+}
+
 // Light from the analytic lights. Shadow maps are fitted to what the camera sees well; surfaces
 // anywhere else (a probe ray's hit behind the camera) use `traced_shadows`.
 fn direct_analytic(s: GSurface, origin: vec3f, traced_shadows: bool) -> vec3f {
@@ -98,13 +126,7 @@ fn direct_analytic(s: GSurface, origin: vec3f, traced_shadows: bool) -> vec3f {
         if all(sample.value == vec3f(0.0)) {
             continue;
         }
-        var vis = 0.0;
-        if traced_shadows {
-            vis = sample_visibility(sample, origin);
-        } else {
-            vis = shadow_visibility(light, s.position, s.geometric_normal);
-        }
-        radiance += sample.value * vis;
+        radiance += sample.value * analytic_visibility(light, s, sample, origin, traced_shadows);
     }
     return radiance;
 }

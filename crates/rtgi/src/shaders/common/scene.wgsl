@@ -173,16 +173,21 @@ fn material_at(m: Material, uv: vec2f, lod: f32) -> SurfaceMaterial {
     return s;
 }
 
+// The tangent frame (columns: tangent, bitangent, normal) in which normal maps are expressed, from the
+// shading normal n and a vertex tangent whose w is the bitangent's handedness.
+fn tangent_frame(n: vec3f, tangent: vec4f) -> mat3x3f {
+    let t = normalize(tangent.xyz - n * dot(n, tangent.xyz));
+    return mat3x3f(t, cross(n, t) * tangent.w, n);
+}
+
 // Applies the material's tangent-space normal map; returns the unperturbed normal without one.
 fn perturb_normal(m: Material, n: vec3f, tangent: vec4f, uv: vec2f, lod: f32) -> vec3f {
     if m.tex_normal < 0 {
         return n;
     }
-    let t = normalize(tangent.xyz - n * dot(n, tangent.xyz));
-    let b = cross(n, t) * tangent.w;
     var tn = sample_linear(m.tex_normal, uv, lod).xyz * 2.0 - 1.0;
     tn = vec3f(tn.xy * m.normal_scale, tn.z);
-    let p = normalize(tn.x * t + tn.y * b + tn.z * n);
+    let p = normalize(tangent_frame(n, tangent) * tn);
     // A perturbed normal must stay in the geometric hemisphere or shading leaks light.
     return select(n, p, dot(p, n) > 0.01);
 }
@@ -221,23 +226,42 @@ fn surface_at_lod(triangle: u32, u: f32, v: f32, dir: vec3f, lod: f32) -> Surfac
     let w = 1.0 - u - v;
     var s: SurfaceHit;
     s.position = t[0].position * w + t[1].position * u + t[2].position * v;
-    var ng = normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
-    var n = normalize(vertex_normal(t[0]) * w + vertex_normal(t[1]) * u + vertex_normal(t[2]) * v);
-    let tangent = vertex_tangent(t[0]) * w + vertex_tangent(t[1]) * u + vertex_tangent(t[2]) * v;
+    let f = vertex_frame(t, u, v, dir);
     s.uv = t[0].uv * w + t[1].uv * u + t[2].uv * v;
     s.material_index = vertex_material(t[0]);
     let m = materials[s.material_index];
     s.material = material_at(m, s.uv, lod);
-    // rtgi shades both sides of every surface: flip both normals to face the viewer.
-    if dot(ng, dir) > 0.0 {
-        ng = -ng;
-    }
-    if dot(n, ng) < 0.0 {
-        n = -n;
-    }
-    s.normal = perturb_normal(m, n, vec4f(tangent.xyz, select(-1.0, 1.0, tangent.w >= 0.0)), s.uv, lod);
-    s.geometric_normal = ng;
+    s.normal = perturb_normal(m, f.normal, f.tangent, s.uv, lod);
+    s.geometric_normal = f.geometric_normal;
     return s;
+}
+
+// A surface point's normals and tangent before normal mapping.
+struct VertexFrame {
+    // Facing the incoming ray.
+    geometric_normal: vec3f,
+    // Interpolated, on the geometric normal's side.
+    normal: vec3f,
+    // Interpolated; w is the bitangent's handedness (±1).
+    tangent: vec4f,
+}
+
+// The frame at barycentrics (u, v) of triangle vertices `t` seen along `dir`. rtgi shades both sides
+// of every surface: both normals are flipped to face the viewer.
+fn vertex_frame(t: array<Vertex, 3>, u: f32, v: f32, dir: vec3f) -> VertexFrame {
+    let w = 1.0 - u - v;
+    var f: VertexFrame;
+    f.geometric_normal = normalize(cross(t[1].position - t[0].position, t[2].position - t[0].position));
+    if dot(f.geometric_normal, dir) > 0.0 {
+        f.geometric_normal = -f.geometric_normal;
+    }
+    f.normal = normalize(vertex_normal(t[0]) * w + vertex_normal(t[1]) * u + vertex_normal(t[2]) * v);
+    if dot(f.normal, f.geometric_normal) < 0.0 {
+        f.normal = -f.normal;
+    }
+    let tangent = vertex_tangent(t[0]) * w + vertex_tangent(t[1]) * u + vertex_tangent(t[2]) * v;
+    f.tangent = vec4f(tangent.xyz, select(-1.0, 1.0, tangent.w >= 0.0));
+    return f;
 }
 
 // Whether a ray along `dir` meets `triangle` at barycentrics (u, v) from behind: the side its authored
