@@ -14,6 +14,7 @@ pub mod env_harmonics;
 pub mod env_projection;
 #[cfg(test)]
 pub(crate) mod fixture;
+pub mod glints;
 pub mod igi;
 pub mod ism;
 pub mod light_paths;
@@ -260,6 +261,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         env_harmonics::INFO,
         prt::INFO,
         subsurface::INFO,
+        glints::INFO,
     ]
 }
 

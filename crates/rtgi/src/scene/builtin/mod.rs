@@ -7,6 +7,7 @@ mod atrium;
 mod bumpy_glossy;
 mod cornell;
 mod furnace;
+pub mod glints;
 mod motion;
 mod pillars;
 pub mod shapes;
@@ -28,7 +29,7 @@ pub struct BuiltinScene {
     pub build: fn(&ParamValues) -> Scene,
 }
 
-static SCENES: [BuiltinScene; 9] = [
+static SCENES: [BuiltinScene; 10] = [
     BuiltinScene {
         name: "cornell",
         description: "the Cornell box from its published measurements, lit by its emissive ceiling quad",
@@ -82,6 +83,12 @@ static SCENES: [BuiltinScene; 9] = [
         description: "a skin sphere and a marble slab (measured media) lit from front and back: subsurface scattering",
         params: translucent::PARAMS,
         build: translucent::build,
+    },
+    BuiltinScene {
+        name: "glints",
+        description: "a floor and a sphere of metallic flakes under two small lights: footprint-filtered glints",
+        params: glints::PARAMS,
+        build: glints::build,
     },
 ];
 
