@@ -13,6 +13,8 @@
 //!   normals are, and a flat-ish map spends no bins on tilts it never has.
 //! - **32-bit counts**, twice the thesis's 2 bytes per bin: exact for every footprint, maps tiled any
 //!   number of times included (wrap-around arithmetic, see [`NormalHistogram::box_counts`]).
+//! - **Row counts**: after the K² bins each texel stores the K row sums, so a footprint asks 2K rows'
+//!   worth of lookups before the bins of its occupied rows, not K² (K more counts per texel).
 
 use glam::{Vec2, Vec3};
 
@@ -85,25 +87,28 @@ impl NormalHistogram {
         // A little margin so the most tilted normal is inside the last cell, at least one cell wide.
         let radius = ((tilt * 1.001 * 64.0).ceil() / 64.0).clamp(1.0 / 64.0, 1.0);
         let bin_count = (bins * bins) as usize;
-        let mut sat = vec![0u32; n * n * bin_count];
+        let stored = stored_bins(bins) as usize;
+        let mut sat = vec![0u32; n * n * stored];
         let per_texel = (s * s) as usize;
         for y in 0..n {
             for x in 0..n {
-                let cell = (y * n + x) * bin_count;
+                let cell = (y * n + x) * stored;
                 for v in &normals[(y * n + x) * per_texel..(y * n + x + 1) * per_texel] {
-                    sat[cell + bin_of(*v, radius, bins) as usize] += 1;
+                    let bin = bin_of(*v, radius, bins) as usize;
+                    sat[cell + bin] += 1;
+                    sat[cell + bin_count + bin / bins as usize] += 1;
                 }
                 // Summed over the rectangle: add the texels above and to the left, minus their overlap.
-                for b in 0..bin_count {
+                for b in 0..stored {
                     let mut c = sat[cell + b];
                     if x > 0 {
-                        c = c.wrapping_add(sat[cell - bin_count + b]);
+                        c = c.wrapping_add(sat[cell - stored + b]);
                     }
                     if y > 0 {
-                        c = c.wrapping_add(sat[cell - n * bin_count + b]);
+                        c = c.wrapping_add(sat[cell - n * stored + b]);
                     }
                     if x > 0 && y > 0 {
-                        c = c.wrapping_sub(sat[cell - (n + 1) * bin_count + b]);
+                        c = c.wrapping_sub(sat[cell - (n + 1) * stored + b]);
                     }
                     sat[cell + b] = c;
                 }
@@ -121,6 +126,7 @@ impl NormalHistogram {
         NormalHistogram { width: size, height: size, bins, radius, sat, bin_normals }
     }
 
+    /// The bins of normals (K²); [`stored_bins`] also counts the rows.
     pub fn bin_count(&self) -> u32 {
         self.bins * self.bins
     }
@@ -138,7 +144,7 @@ impl NormalHistogram {
         if x == 0 || y == 0 {
             return 0;
         }
-        self.sat[(((y - 1) * self.width + (x - 1)) * self.bin_count() + bin) as usize]
+        self.sat[(((y - 1) * self.width + (x - 1)) * stored_bins(self.bins) + bin) as usize]
     }
 
     /// Normals in `bin` over texels [0, x) × [0, y) of the map tiled over the plane (x, y any
@@ -155,9 +161,9 @@ impl NormalHistogram {
         c.wrapping_add(qx.wrapping_mul(qy).wrapping_mul(self.stored(self.width, self.height, bin)))
     }
 
-    /// The histogram of texels [x0, x1) × [y0, y1) of the tiled map.
+    /// The histogram of texels [x0, x1) × [y0, y1) of the tiled map: its K² bins, then its K rows.
     pub fn box_counts(&self, x0: i64, y0: i64, x1: i64, y1: i64) -> Vec<u32> {
-        (0..self.bin_count())
+        (0..stored_bins(self.bins))
             .map(|b| {
                 self.cumulative(x1, y1, b)
                     .wrapping_sub(self.cumulative(x0, y1, b))
@@ -193,6 +199,12 @@ impl NormalHistogram {
         let whole = a.0.wrapping_sub(b.0).wrapping_sub(c.0).wrapping_add(d.0);
         whole as f32 + (a.1 - b.1 - c.1 + d.1)
     }
+}
+
+/// Counts stored per texel with `bins` bins along each axis: the K² bins, then the K rows of bins
+/// (normals with the same y cell), which let a footprint skip whole empty rows at once.
+pub fn stored_bins(bins: u32) -> u32 {
+    bins * bins + bins
 }
 
 /// The bin of tangent-space normal `n` (CPU twin of the binning the histogram was built with).

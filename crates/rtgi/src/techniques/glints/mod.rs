@@ -43,7 +43,7 @@ pub const PARAMS: [ParamSpec; 9] = with_direct_params![ParamSpec {
     name: "bins",
     kind: ParamKind::Int { min: 3, max: 33 },
     default: "17",
-    doc: "histogram bins along each axis of the projected disc of normals (odd keeps a bin centred on the macro normal); memory is bins² × 4 bytes per texel",
+    doc: "histogram bins along each axis of the projected disc of normals (odd keeps a bin centred on the macro normal); memory is (bins² + bins) × 4 bytes per texel",
 }];
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -72,7 +72,7 @@ pub struct GpuGlintMaterial {
 
 /// The counters' slots (COUNTER_* in glints.wgsl).
 pub const COUNTERS: [&str; 4] =
-    ["glints_pixels", "glints_active_bins", "glints_chunks", "glints_clamped_footprints"];
+    ["glints_pixels", "glints_active_bins", "glints_slot_groups", "glints_clamped_footprints"];
 
 /// The histograms of a scene's normal-mapped materials, one per distinct (map, normal scale).
 pub struct SceneHistograms {
@@ -84,7 +84,7 @@ pub struct SceneHistograms {
 
 /// Bytes of `maps` histograms of `size`² texels with `bins`² bins.
 pub fn histogram_bytes(bins: u32, maps: u64, size: u32) -> u64 {
-    maps * u64::from(size) * u64::from(size) * u64::from(bins * bins) * 4
+    maps * u64::from(size) * u64::from(size) * u64::from(histogram::stored_bins(bins)) * 4
 }
 
 /// The largest odd number of bins, at most `requested` (at most one below it when it is even), whose
