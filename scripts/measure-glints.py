@@ -91,7 +91,7 @@ def main():
         f"Printed by `{m.command_line(SCRIPT)}` at commit `{commit}` on {m.adapter_text(adapter)}"
         + (", 2 CPU cores" if cpu else "") + ". " + m.load_text(start_load, end_load), "",
         "`glints` on the built-in `glints` scene (`crates/rtgi/src/techniques/glints/`): each pixel's footprint "
-        "(the ray differentials' bounding box in texel space) gets its histogram of micronormals from the "
+        "(the ray differentials' parallelogram as the axis-aligned box with its second moments, in texel space) gets its histogram of micronormals from the "
         "histogram SAT, and every light is reflected by Σ_b w_b f(n_b) (n_b·l)⁺ over the non-empty bins. "
         "Reference: `path` with `max_bounces=0 pixel_jitter=true` at 4096 samples per pixel spread over each "
         "pixel: the direct light integrated over the pixel, normals read bilinearly at full resolution, shadows "

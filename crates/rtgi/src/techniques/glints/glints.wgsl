@@ -278,13 +278,16 @@ fn shade_glints(g: GlintMaterial, gbuffer: GSurface, hit: Hit, pixel: vec2u, xy:
     let tangents = tangent_frame(vf.normal, vf.tangent);
     let origin = gsurface_ray_origin(s);
 
-    // The footprint: the bounding box of the pixel's parallelogram in texel space, its origin folded
-    // into the first period of the tiled map.
+    // The footprint: the pixel's parallelogram in texel space (spanned by the ray differentials) as the
+    // axis-aligned box with its spread along u and along v (the same second moments: half extents
+    // ½ √(j_x² + j_y²)), which is exact for a parallelogram along the axes and smaller than its
+    // bounding box when it is sheared (the bounding box blurred the glints: twice the relative MSE on
+    // `glints`); its origin folded into the first period of the tiled map.
     let size = f32(g.size);
     let uv = t[0].uv * (1.0 - hit.u - hit.v) + t[1].uv * hit.u + t[2].uv * hit.v;
     let j = primary_uv_differentials(hit.triangle, xy, dir, hit.t);
     let centre = uv * size;
-    let half_extent = 0.5 * (abs(j[0]) + abs(j[1])) * size;
+    let half_extent = 0.5 * sqrt(j[0] * j[0] + j[1] * j[1]) * size;
     // At least a hundredth of a texel, so the box holds normals; at most MAX_FOOTPRINT.
     let clamped = clamp(half_extent, vec2f(0.005), vec2f(0.5 * MAX_FOOTPRINT));
     if any(clamped < half_extent) {

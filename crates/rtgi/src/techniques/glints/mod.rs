@@ -5,18 +5,20 @@
 //!
 //! Once per scene, on the CPU: for every normal-mapped material, the histogram SAT of its map
 //! ([`histogram`]). Per frame, one GPU pass: a pixel on such a material re-casts its primary ray, bounds
-//! the ray differentials' footprint by a box of texels, reads the box's normal histogram in four lookups
-//! per bin, and reflects light with Σ_b w_b f(n_b; v, l) (n_b·l)⁺, the shared BRDF with each non-empty
-//! bin's normal as shading normal and the bin's share of the footprint as weight ("G × D" with the
-//! thesis's histogram). One evaluation per light gives the converged glint pattern of a point, spot or
-//! directional light: no sub-pixel sampling, no noise, no temporal aliasing.
+//! the ray differentials' footprint by a box in texel space (the axis-aligned box with the footprint's
+//! second moments), reads the box's normal histogram in 4–16 lookups per bin, and reflects light with
+//! Σ_b w_b f(n_b; v, l) (n_b·l)⁺, the shared BRDF with each non-empty bin's normal as shading normal and
+//! the bin's share of the footprint as weight ("G × D" with the thesis's histogram). One evaluation per
+//! light gives the converged glint pattern of a point, spot or directional light: no sub-pixel sampling,
+//! no noise, no temporal aliasing.
 //!
 //! Not built (yet): the thesis's part (b), basis-space integration of the environment (the histogram
 //! projected onto SH with pre-rotated lobes, a double product with view-dependent half-vector lighting
 //! tables) and its ratio estimator for shadows. Emissive triangles and the environment are lit here by
 //! light samples weighted by the filtered reflectance: unbiased, but noisy per frame like `direct`,
-//! converging over frames. The footprint is the ray differentials' axis-aligned box (as the thesis),
-//! so rotated anisotropic footprints are over-blurred; a microfacet's own roughness is the material's.
+//! converging over frames. The footprint is an axis-aligned box (as the thesis's, though moment-matched
+//! rather than bounding), so the shape of sheared or rotated anisotropic footprints is lost; a
+//! microfacet's own roughness is the material's.
 
 pub mod histogram;
 #[cfg(test)]
