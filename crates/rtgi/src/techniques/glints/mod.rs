@@ -80,8 +80,6 @@ pub const COUNTERS: [&str; 4] =
 pub struct SceneHistograms {
     pub materials: Vec<GpuGlintMaterial>,
     pub histograms: Vec<NormalHistogram>,
-    /// The materials (by name) each histogram serves.
-    pub users: Vec<Vec<String>>,
 }
 
 /// Bytes of `maps` histograms of `size`² texels with `bins`² bins.
@@ -123,7 +121,6 @@ impl SceneHistograms {
     pub fn build(scene: &Scene, texture_size: u32, bins: u32) -> Self {
         let mut keys: Vec<(u32, u32)> = Vec::new();
         let mut histograms: Vec<NormalHistogram> = Vec::new();
-        let mut users: Vec<Vec<String>> = Vec::new();
         let mut materials = Vec::with_capacity(scene.materials.len());
         let mut offset = 0u32;
         let mut normal_offset = 0u32;
@@ -144,11 +141,9 @@ impl SceneHistograms {
                     offset += h.sat.len() as u32;
                     normal_offset += h.bin_count();
                     histograms.push(h);
-                    users.push(Vec::new());
                     keys.len() - 1
                 }
             };
-            users[index].push(m.name.clone());
             let h = &histograms[index];
             materials.push(GpuGlintMaterial {
                 offset: placed[index].0,
@@ -159,7 +154,7 @@ impl SceneHistograms {
                 _pad: [0; 3],
             });
         }
-        SceneHistograms { materials, histograms, users }
+        SceneHistograms { materials, histograms }
     }
 
     pub fn bytes(&self) -> u64 {
@@ -224,7 +219,7 @@ impl Glints {
         if normals.is_empty() {
             normals.push([0.0, 0.0, 1.0, 0.0]);
         }
-        let mut materials = scene_histograms.materials.clone();
+        let mut materials = scene_histograms.materials;
         if materials.is_empty() {
             materials.push(GpuGlintMaterial::default());
         }
