@@ -43,6 +43,11 @@ pub struct GpuMaterial {
     pub tex_metal_rough: i32,
     pub tex_emissive: i32,
     pub tex_normal: i32,
+    /// The translucent medium under the surface (σ_a, σ_s' per scene unit, η), zero when opaque.
+    pub medium_absorption: [f32; 3],
+    pub medium_eta: f32,
+    pub medium_scattering: [f32; 3],
+    pub _pad_medium: f32,
 }
 
 pub const LIGHT_POINT: u32 = 0;
@@ -536,6 +541,10 @@ fn gpu_materials(ctx: &GpuContext, scene: &Scene) -> Result<(Vec<GpuMaterial>, L
             tex_metal_rough: table.layer(m.metallic_roughness_texture, false),
             tex_emissive: table.layer(m.emissive_texture, true),
             tex_normal: table.layer(m.normal_texture, false),
+            medium_absorption: m.subsurface.map_or([0.0; 3], |s| s.absorption.into()),
+            medium_eta: m.subsurface.map_or(0.0, |s| s.eta),
+            medium_scattering: m.subsurface.map_or([0.0; 3], |s| s.reduced_scattering.into()),
+            _pad_medium: 0.0,
         })
         .collect();
     let max_layers = ctx.limits().max_texture_array_layers as usize;
@@ -1435,6 +1444,9 @@ mod tests {
                 ("tex_metal_rough", offset_of!(GpuMaterial, tex_metal_rough)),
                 ("tex_emissive", offset_of!(GpuMaterial, tex_emissive)),
                 ("tex_normal", offset_of!(GpuMaterial, tex_normal)),
+                ("medium_absorption", offset_of!(GpuMaterial, medium_absorption)),
+                ("medium_eta", offset_of!(GpuMaterial, medium_eta)),
+                ("medium_scattering", offset_of!(GpuMaterial, medium_scattering)),
             ],
         );
         assert_layout(

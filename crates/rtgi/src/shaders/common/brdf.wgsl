@@ -205,3 +205,115 @@ fn phong_exponent(roughness: f32) -> f32 {
     let a = ggx_alpha(roughness);
     return max(2.0 / (a * a) - 2.0, 0.0);
 }
+
+// A rough dielectric boundary between two media (Walter, Marschner, Li and Torrance 2007: GGX
+// microfacets, reflection and refraction split by the exact Fresnel term, height-correlated Smith
+// masking), for the path tracer's translucent materials. `n` faces `v`; `eta` is the index of the far
+// side over the index of v's side (η entering a medium of index η, 1/η leaving it); l on v's side is a
+// reflection, on the far side a refraction. The refraction keeps Walter's η² (radiance is η² denser in
+// the denser medium); a path that enters a medium and leaves it again carries η² · η⁻² = 1.
+// An index-matched boundary (eta = 1) is no boundary at all: callers pass straight through it.
+
+// G2 / (4 |n·l| |n·v|) for either side.
+fn smith_g2(alpha: f32, n_dot_l: f32, n_dot_v: f32) -> f32 {
+    return 4.0 * n_dot_l * n_dot_v * smith_visibility(alpha, n_dot_l, n_dot_v);
+}
+
+// The half vector of v and l across (or on the same side of) the boundary, on n's side, or zero when
+// the pair cannot be joined by a microfacet.
+fn dielectric_half_vector(n: vec3f, v: vec3f, l: vec3f, eta: f32) -> vec3f {
+    let reflect_side = dot(n, l) > 0.0;
+    var h = select(v + eta * l, v + l, reflect_side);
+    if dot(h, h) < 1e-12 {
+        return vec3f(0.0);
+    }
+    h = normalize(h);
+    if !reflect_side {
+        // Refraction: v and l must lie on opposite sides of the microfacet.
+        h = -h;
+        if dot(h, n) < 0.0 {
+            h = -h;
+        }
+        if dot(v, h) <= 0.0 || dot(l, h) >= 0.0 {
+            return vec3f(0.0);
+        }
+    }
+    return h;
+}
+
+// BSDF value (without the cosine) for v on n's side and l on either side.
+fn dielectric_eval(roughness: f32, eta: f32, n: vec3f, v: vec3f, l: vec3f) -> f32 {
+    let n_dot_v = dot(n, v);
+    let n_dot_l = dot(n, l);
+    let h = dielectric_half_vector(n, v, l, eta);
+    if n_dot_v <= 0.0 || n_dot_l == 0.0 || dot(h, h) == 0.0 {
+        return 0.0;
+    }
+    let alpha = ggx_alpha(roughness);
+    let v_dot_h = dot(v, h);
+    let f = fresnel_dielectric(eta, v_dot_h);
+    let d = ggx_d(alpha, saturate(dot(n, h)));
+    if n_dot_l > 0.0 {
+        return f * d * smith_visibility(alpha, n_dot_l, n_dot_v);
+    }
+    let l_dot_h = dot(l, h);
+    let denom = v_dot_h + eta * l_dot_h;
+    let g2 = smith_g2(alpha, -n_dot_l, n_dot_v);
+    return v_dot_h * abs(l_dot_h) / (n_dot_v * -n_dot_l) * (1.0 - f) * d * g2 * eta * eta / (denom * denom);
+}
+
+// Density of `dielectric_sample` choosing l (solid angle measure).
+fn dielectric_pdf(roughness: f32, eta: f32, n: vec3f, v: vec3f, l: vec3f) -> f32 {
+    let n_dot_v = dot(n, v);
+    let h = dielectric_half_vector(n, v, l, eta);
+    if n_dot_v <= 0.0 || dot(h, h) == 0.0 {
+        return 0.0;
+    }
+    let alpha = ggx_alpha(roughness);
+    let v_dot_h = dot(v, h);
+    let f = fresnel_dielectric(eta, v_dot_h);
+    // Visible normals: D_v(h) = G1(v) (v·h) D(h) / (n·v).
+    let d_v = smith_g1(alpha, n_dot_v) * v_dot_h * ggx_d(alpha, saturate(dot(n, h))) / n_dot_v;
+    if dot(n, l) > 0.0 {
+        return f * d_v / (4.0 * v_dot_h);
+    }
+    let l_dot_h = dot(l, h);
+    let denom = v_dot_h + eta * l_dot_h;
+    return (1.0 - f) * d_v * eta * eta * abs(l_dot_h) / (denom * denom);
+}
+
+struct DielectricSample {
+    direction: vec3f,
+    pdf: f32,
+    // bsdf · |cos| / pdf: G2 / G1(v) for either branch, zero when the sample is invalid.
+    weight: f32,
+    refracted: bool,
+}
+
+// Samples a visible microfacet normal, then reflects with the Fresnel probability or refracts.
+fn dielectric_sample(roughness: f32, eta: f32, n: vec3f, v: vec3f, u: vec3f) -> DielectricSample {
+    var s: DielectricSample;
+    let n_dot_v = dot(n, v);
+    if n_dot_v <= 0.0 {
+        return s;
+    }
+    let alpha = ggx_alpha(roughness);
+    let h = local_to_world(sample_ggx_vndf(world_to_local(v, n), alpha, u.yz), n);
+    let v_dot_h = dot(v, h);
+    let f = fresnel_dielectric(eta, v_dot_h);
+    if u.x < f {
+        s.direction = reflect(-v, h);
+    } else {
+        s.direction = refract(-v, h, 1.0 / eta);
+        s.refracted = true;
+    }
+    let n_dot_l = dot(n, s.direction);
+    if (n_dot_l > 0.0) == s.refracted || n_dot_l == 0.0 {
+        return s;
+    }
+    s.pdf = dielectric_pdf(roughness, eta, n, v, s.direction);
+    if s.pdf > 0.0 {
+        s.weight = smith_g2(alpha, abs(n_dot_l), n_dot_v) / smith_g1(alpha, n_dot_v);
+    }
+    return s;
+}

@@ -33,6 +33,12 @@ struct Material {
     tex_metal_rough: i32,
     tex_emissive: i32,
     tex_normal: i32,
+    // A translucent medium under the surface (scene::Subsurface, what the path tracer's random walk
+    // reads): σ_a and σ_s' per scene unit and the boundary's index; medium_eta = 0 for opaque materials.
+    medium_absorption: vec3f,
+    medium_eta: f32,
+    medium_scattering: vec3f,
+    _pad_medium: f32,
 }
 
 const LIGHT_POINT: u32 = 0u;

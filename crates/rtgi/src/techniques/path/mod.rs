@@ -42,6 +42,20 @@ const PARAMS: &[ParamSpec] = &[
         doc: "box-filter each pixel (true) or sample its centre like the raster techniques (false)",
     },
     ParamSpec {
+        name: "subsurface",
+        kind: ParamKind::Choice(&["walk", "lambertian"]),
+        default: "walk",
+        doc: "translucent materials: a random walk through the medium under a rough dielectric boundary (walk, \
+              the ground truth of `subsurface`), or the Lambertian of the medium's total diffuse reflectance that \
+              techniques without subsurface transport see (lambertian)",
+    },
+    ParamSpec {
+        name: "walk_steps",
+        kind: ParamKind::Int { min: 1, max: 60000 },
+        default: "4096",
+        doc: "scattering events after which a random walk is cut short (counted in `truncated_walks`)",
+    },
+    ParamSpec {
         name: "seed",
         kind: ParamKind::Int { min: 0, max: 4294967295 },
         default: "0",
@@ -61,6 +75,8 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 };
 
 const PASS: &str = "path trace";
+/// Rays traced (a 64-bit count as two words) and random walks cut short (path.wgsl `ray_count`).
+const RAY_COUNTER_BYTES: usize = 12;
 
 struct PathTracer {
     pipeline: wgpu::ComputePipeline,
@@ -88,7 +104,7 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
     });
     let ray_counter = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("ray counter"),
-        contents: &[0u8; 8],
+        contents: &[0u8; RAY_COUNTER_BYTES],
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
     });
     let view = setup.output.create_view(&Default::default());
@@ -110,7 +126,9 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         .u32("SPP", spp)
         .i32("MAX_BOUNCES", p.int("max_bounces") as i32)
         .u32("NEE_MODE", nee)
-        .bool("PIXEL_JITTER", p.bool("pixel_jitter"));
+        .bool("PIXEL_JITTER", p.bool("pixel_jitter"))
+        .bool("SUBSURFACE_WALK", p.choice("subsurface") == "walk")
+        .u32("MAX_WALK_STEPS", p.int("walk_steps") as u32);
     let pipeline = compute::pipeline(
         setup.ctx,
         "path",
@@ -166,7 +184,7 @@ impl Technique for PathTracer {
         ctx: &GpuContext,
         measured: &Measured,
     ) -> Result<BTreeMap<String, f64>, RenderError> {
-        let count = readback::read_buffer(ctx, &self.ray_counter, 0, 8)?;
+        let count = readback::read_buffer(ctx, &self.ray_counter, 0, RAY_COUNTER_BYTES as u64)?;
         let words: &[u32] = bytemuck::cast_slice(&count);
         let rays = (u64::from(words[1]) << 32 | u64::from(words[0])) as f64;
         let samples = self.samples as f64;
@@ -185,6 +203,7 @@ impl Technique for PathTracer {
             ("rays_per_sample".to_string(), rays_per_sample),
             ("samples_per_second".to_string(), samples_per_second),
             ("rays_per_second".to_string(), rays_per_sample * samples_per_second),
+            ("truncated_walks".to_string(), f64::from(words[2])),
         ]))
     }
 }
@@ -203,7 +222,9 @@ mod tests {
                 .u32("SPP", 4)
                 .i32("MAX_BOUNCES", -1)
                 .u32("NEE_MODE", 0)
-                .bool("PIXEL_JITTER", false),
+                .bool("PIXEL_JITTER", false)
+                .bool("SUBSURFACE_WALK", true)
+                .u32("MAX_WALK_STEPS", 4096),
         );
     }
 }
