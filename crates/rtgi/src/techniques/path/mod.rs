@@ -127,7 +127,11 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         .i32("MAX_BOUNCES", p.int("max_bounces") as i32)
         .u32("NEE_MODE", nee)
         .bool("PIXEL_JITTER", p.bool("pixel_jitter"))
-        .bool("SUBSURFACE_WALK", p.choice("subsurface") == "walk")
+        // Compiled out of scenes without a translucent material, so their paths pay nothing for it.
+        .bool(
+            "SUBSURFACE_WALK",
+            p.choice("subsurface") == "walk" && setup.scene.materials.iter().any(|m| m.subsurface.is_some()),
+        )
         .u32("MAX_WALK_STEPS", p.int("walk_steps") as u32);
     let pipeline = compute::pipeline(
         setup.ctx,

@@ -120,7 +120,7 @@ fn trace_path(pixel: vec2u, rng: ptr<function, Rng>, rays: ptr<function, u32>) -
     var medium_material = 0u;
     for (var depth = 0u; ; depth++) {
         var hit: Hit;
-        if in_medium {
+        if SUBSURFACE_WALK && in_medium {
             let walk = medium_walk(&ray, &throughput, materials[medium_material], rng, rays);
             if !walk.reached_boundary {
                 break;
