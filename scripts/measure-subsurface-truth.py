@@ -32,7 +32,7 @@ SPP_PER_FRAME = 64
 def main():
     args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     args.add_argument("--size", default="64x64")
-    args.add_argument("--spp", type=int, default=2048)
+    args.add_argument("--spp", type=int, default=4096)
     args.add_argument("--doc", default="subsurface-truth-lavapipe")
     args.add_argument("--allow-dirty", action="store_true")
     args = args.parse_args()
