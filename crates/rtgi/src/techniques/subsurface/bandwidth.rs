@@ -6,8 +6,7 @@
 
 use std::f64::consts::PI;
 
-use crate::scene::Subsurface;
-use crate::scene::subsurface::fresnel_dielectric;
+use crate::scene::subsurface::{Dipole, fresnel_dielectric};
 
 /// Fraction of the spectrum's energy a bandwidth keeps.
 pub const ENERGY_FRACTION: f64 = 0.95;
@@ -78,23 +77,22 @@ pub fn energy_bandwidth(values: &[f64], step: f64) -> f64 {
 /// B_s (cycles per metre): the largest over the channels of the bandwidth of R_d along a line through
 /// the entry point, sampled out to where the profile has fallen by e^{−12} with 4096 samples (or
 /// `samples`, for the resolution test).
-pub fn spatial_bandwidth_with(medium: &Subsurface, samples: usize) -> f64 {
-    let tr = medium.effective_transport();
-    let (_, z_v) = medium.source_depths();
+pub fn spatial_bandwidth_with(dipole: &Dipole, samples: usize) -> f64 {
+    let (tr, z_v) = (dipole.transport, dipole.z_v);
     let mut best: f64 = 0.0;
     for c in 0..3 {
         let extent = f64::from(12.0 / tr[c] + 4.0 * z_v[c]);
         let step = 2.0 * extent / samples as f64;
         let values: Vec<f64> = (0..samples)
-            .map(|i| f64::from(medium.profile((-extent + (i as f64 + 0.5) * step).abs() as f32)[c]))
+            .map(|i| f64::from(dipole.profile((-extent + (i as f64 + 0.5) * step).abs() as f32)[c]))
             .collect();
         best = best.max(energy_bandwidth(&values, step));
     }
     best
 }
 
-pub fn spatial_bandwidth(medium: &Subsurface) -> f64 {
-    spatial_bandwidth_with(medium, 4096)
+pub fn spatial_bandwidth(dipole: &Dipole) -> f64 {
+    spatial_bandwidth_with(dipole, 4096)
 }
 
 /// B_θ(θ_o) (cycles per radian) at the centres of `ANGULAR_BINS` bins over [0, π/2): the bandwidth of
@@ -125,6 +123,8 @@ pub fn angular_bandwidths(eta: f32) -> [f32; ANGULAR_BINS] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Subsurface;
+    use crate::scene::subsurface::DipoleModel;
 
     /// The power spectrum of a Gaussian of standard deviation σ is a Gaussian of standard deviation
     /// 1/(2√2 πσ) in frequency, so 95 % of its energy lies below 1.96 times that.
@@ -144,10 +144,13 @@ mod tests {
     /// transform's resolution. Measured: 4096 against 16384 samples differ by < 1 %.
     #[test]
     fn spatial_bandwidth_grows_with_transport_and_is_stable() {
-        let m = |sigma_a: f32| Subsurface {
-            absorption: glam::Vec3::splat(sigma_a),
-            reduced_scattering: glam::Vec3::splat(20.0),
-            eta: 1.3,
+        let m = |sigma_a: f32| {
+            Subsurface {
+                absorption: glam::Vec3::splat(sigma_a),
+                reduced_scattering: glam::Vec3::splat(20.0),
+                eta: 1.3,
+            }
+            .dipole(DipoleModel::Classical)
         };
         let mut last = 0.0;
         for sigma_a in [0.05, 0.5, 2.0, 8.0, 20.0] {

@@ -43,7 +43,7 @@ struct NodeLight {
 }
 
 // The dipole of a material (all zero for opaque ones). Per channel: σ_tr, real source depth z_r,
-// virtual source height z_v and reduced albedo α'.
+// virtual source height z_v and the weights of the profile's flux and fluence terms.
 struct Medium {
     transport: vec3f,
     eta: f32,
@@ -52,8 +52,10 @@ struct Medium {
     spatial_bandwidth: f32,
     z_v: vec3f,
     translucent: u32,
-    alpha: vec3f,
-    _pad: f32,
+    k_e: vec3f,
+    _pad0: f32,
+    k_phi: vec3f,
+    _pad1: f32,
 }
 
 // A cluster of pixels of one translucent mesh (a square of 1, 2², 4² or 8² pixels of one tile) that
@@ -99,13 +101,15 @@ const COUNTER_TRUNCATED: u32 = 4u;
 @group(2) @binding(11) var<storage, read_write> node_order: array<u32>;
 // Binding 12 is the output (shade.wgsl).
 
-// The dipole's diffuse reflectance profile R_d(r) (Jensen et al. 2001; CPU twin
-// `scene::subsurface::Subsurface::profile`).
+// The dipole's diffuse reflectance profile R_d(r), classical (Jensen et al. 2001) or better (d'Eon
+// 2012) by its weights (CPU twin `scene::subsurface::Dipole::profile`).
 fn dipole_profile(m: Medium, r: f32) -> vec3f {
     let r2 = vec3f(r * r);
     let d_r = sqrt(r2 + m.z_r * m.z_r);
     let d_v = sqrt(r2 + m.z_v * m.z_v);
-    let real = m.z_r * (m.transport * d_r + 1.0) * exp(-m.transport * d_r) / (d_r * d_r * d_r);
-    let virt = m.z_v * (m.transport * d_v + 1.0) * exp(-m.transport * d_v) / (d_v * d_v * d_v);
-    return m.alpha * (0.25 * INV_PI) * (real + virt);
+    let fall_r = exp(-m.transport * d_r);
+    let fall_v = exp(-m.transport * d_v);
+    let real = m.z_r * (m.transport * d_r + 1.0) * fall_r / (d_r * d_r * d_r);
+    let virt = m.z_v * (m.transport * d_v + 1.0) * fall_v / (d_v * d_v * d_v);
+    return m.k_e * (real + virt) + m.k_phi * (fall_r / d_r - fall_v / d_v);
 }

@@ -41,6 +41,7 @@ use crate::gpu::dispatch::workgroups_for;
 use crate::gpu::{BufferBuilder, GpuContext, GpuScene, Profiler, readback};
 use crate::params::{ParamKind, ParamSpec};
 use crate::scene::Scene;
+use crate::scene::subsurface::DipoleModel;
 use crate::shaders::Defines;
 
 use super::compute::{self, DispatchSlots, storage_buffer_entry, storage_texture_entry};
@@ -51,7 +52,7 @@ use super::{
 use bandwidth::ANGULAR_BINS;
 use samples::{IlluminationTrees, MAX_DEPTH};
 
-pub const PARAMS: [ParamSpec; 11] = with_direct_params![
+pub const PARAMS: [ParamSpec; 12] = with_direct_params![
     ParamSpec {
         name: "samples",
         kind: ParamKind::Int { min: 16, max: 1 << 20 },
@@ -63,6 +64,12 @@ pub const PARAMS: [ParamSpec; 11] = with_direct_params![
         kind: ParamKind::Float { min: 0.0, max: 4.0 },
         default: "0.1",
         doc: "ε: a tree node lights a cluster whole when its solid angle A/d² is below this (0: every sample, the reference)",
+    },
+    ParamSpec {
+        name: "dipole",
+        kind: ParamKind::Choice(&["classical", "better"]),
+        default: "classical",
+        doc: "diffusion profile: Jensen et al. 2001's dipole or d'Eon 2012's better dipole (fluence term, corrected diffusion coefficient)",
     },
     ParamSpec {
         name: "rho",
@@ -93,8 +100,11 @@ pub struct GpuMedium {
     pub spatial_bandwidth: f32,
     pub z_v: [f32; 3],
     pub translucent: u32,
-    pub alpha: [f32; 3],
-    pub _pad: f32,
+    /// The profile's weights of its flux and fluence terms (`scene::subsurface::Dipole`).
+    pub k_e: [f32; 3],
+    pub _pad0: f32,
+    pub k_phi: [f32; 3],
+    pub _pad1: f32,
 }
 
 /// WGSL `ClusterJob`.
@@ -116,22 +126,24 @@ const BINDINGS: &str = include_str!("bindings.wgsl");
 const WORKGROUP: u32 = 64;
 
 /// The dipole and bandwidths of every material (opaque ones zero).
-pub fn media(scene: &Scene) -> (Vec<GpuMedium>, Vec<f32>) {
+pub fn media(scene: &Scene, model: DipoleModel) -> (Vec<GpuMedium>, Vec<f32>) {
     let mut media = Vec::new();
     let mut angular = Vec::new();
     for material in &scene.materials {
         match material.subsurface {
             Some(m) => {
-                let (z_r, z_v) = m.source_depths();
+                let dipole = m.dipole(model);
                 media.push(GpuMedium {
-                    transport: m.effective_transport().to_array(),
+                    transport: dipole.transport.to_array(),
                     eta: m.eta,
-                    z_r: z_r.to_array(),
-                    spatial_bandwidth: bandwidth::spatial_bandwidth(&m) as f32,
-                    z_v: z_v.to_array(),
+                    z_r: dipole.z_r.to_array(),
+                    spatial_bandwidth: bandwidth::spatial_bandwidth(&dipole) as f32,
+                    z_v: dipole.z_v.to_array(),
                     translucent: 1,
-                    alpha: m.reduced_albedo().to_array(),
-                    _pad: 0.0,
+                    k_e: dipole.k_e.to_array(),
+                    _pad0: 0.0,
+                    k_phi: dipole.k_phi.to_array(),
+                    _pad1: 0.0,
                 });
                 angular.extend(bandwidth::angular_bandwidths(m.eta));
             }
@@ -203,7 +215,11 @@ impl Subsurface {
                 ));
             }
         }
-        let (media, angular) = media(setup.scene);
+        let model = match setup.params.choice("dipole") {
+            "better" => DipoleModel::Better,
+            _ => DipoleModel::Classical,
+        };
+        let (media, angular) = media(setup.scene, model);
         // Triangles within each mesh become triangles of the GPU scene.
         let samples: Vec<samples::IlluminationSample> = trees
             .samples
