@@ -158,3 +158,15 @@ fn direct_light(
     }
     return radiance;
 }
+
+// What the `direct` technique shows at camera pixel `pixel` whose G-buffer surface is `s` (the
+// environment where nothing was hit): emission plus direct light with the frame's random numbers of
+// that pixel and shadow maps. Techniques that shade some pixels their own way shade the rest with it,
+// so that they agree with `direct` there.
+fn direct_pixel_radiance(s: GSurface, pixel: vec2u, area_samples: u32, env_samples: u32) -> vec3f {
+    if !s.valid {
+        return environment_radiance(-s.view);
+    }
+    var rng = rng_new(pixel, frame.frame_counter, frame.seed);
+    return s.material.emission + direct_light(s, gsurface_ray_origin(s), &rng, area_samples, env_samples, false);
+}

@@ -12,15 +12,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    let s = load_gsurface(id.xy);
-    var radiance = vec3f(0.0);
-    if !s.valid {
-        radiance = environment_radiance(-s.view);
-    } else {
-        var rng = rng_new(id.xy, frame.frame_counter, frame.seed);
-        radiance = s.material.emission
-            + direct_light(s, gsurface_ray_origin(s), &rng, AREA_SAMPLES, ENV_SAMPLES, false);
-    }
+    var radiance = direct_pixel_radiance(load_gsurface(id.xy), id.xy, AREA_SAMPLES, ENV_SAMPLES);
     if ACCUMULATE {
         radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
     }

@@ -350,27 +350,21 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     }
     let s = load_gsurface(id.xy);
     var radiance = vec3f(0.0);
-    if !s.valid {
-        radiance = environment_radiance(-s.view);
-    } else {
+    var shaded = false;
+    if s.valid && glint_materials[s.material_index].size > 0u {
         let g = glint_materials[s.material_index];
-        var shaded = false;
-        if g.size > 0u {
-            let xy = vec2f(id.xy) + 0.5 + frame.jitter;
-            let dir = primary_ray_through(xy);
-            let hit = trace_closest(Ray(frame.camera_position, dir), 0.0, FLT_MAX);
-            // The G-buffer may see another surface where rasterisation and the ray disagree (edges):
-            // such pixels are shaded as `direct` shades them.
-            if hit_found(hit) && vertex_material(triangle_vertices(hit.triangle)[0]) == s.material_index {
-                radiance = s.material.emission + shade_glints(g, s, hit, id.xy, xy, dir);
-                shaded = true;
-            }
+        let xy = vec2f(id.xy) + 0.5 + frame.jitter;
+        let dir = primary_ray_through(xy);
+        let hit = trace_closest(Ray(frame.camera_position, dir), 0.0, FLT_MAX);
+        // The G-buffer may see another surface where rasterisation and the ray disagree (edges):
+        // such pixels are shaded as `direct` shades them.
+        if hit_found(hit) && vertex_material(triangle_vertices(hit.triangle)[0]) == s.material_index {
+            radiance = s.material.emission + shade_glints(g, s, hit, id.xy, xy, dir);
+            shaded = true;
         }
-        if !shaded {
-            var rng = rng_new(id.xy, frame.frame_counter, frame.seed);
-            radiance = s.material.emission
-                + direct_light(s, gsurface_ray_origin(s), &rng, AREA_SAMPLES, ENV_SAMPLES, false);
-        }
+    }
+    if !shaded {
+        radiance = direct_pixel_radiance(s, id.xy, AREA_SAMPLES, ENV_SAMPLES);
     }
     radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
     textureStore(output, id.xy, vec4f(radiance, 1.0));

@@ -13,23 +13,19 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     var s = load_gsurface(id.xy);
-    var radiance = vec3f(0.0);
-    if !s.valid {
-        radiance = environment_radiance(-s.view);
-    } else {
-        let medium = media[s.material_index];
-        let translucent = medium.translucent != 0u;
-        if translucent {
-            s.material.base_color = vec3f(0.0);
-        }
-        var rng = rng_new(id.xy, frame.frame_counter, frame.seed);
-        radiance = s.material.emission
-            + direct_light(s, gsurface_ray_origin(s), &rng, AREA_SAMPLES, ENV_SAMPLES, false);
-        let job = pixel_job[id.y * frame.size.x + id.x];
-        if translucent && job != NO_JOB {
-            let transmitted = 1.0 - fresnel_dielectric(medium.eta, dot(s.normal, s.view));
-            radiance += transmitted * INV_PI * job_light[job].rgb;
-        }
+    var medium: Medium;
+    if s.valid {
+        medium = media[s.material_index];
+    }
+    let translucent = medium.translucent != 0u;
+    if translucent {
+        s.material.base_color = vec3f(0.0);
+    }
+    var radiance = direct_pixel_radiance(s, id.xy, AREA_SAMPLES, ENV_SAMPLES);
+    let job = pixel_job[id.y * frame.size.x + id.x];
+    if translucent && job != NO_JOB {
+        let transmitted = 1.0 - fresnel_dielectric(medium.eta, dot(s.normal, s.view));
+        radiance += transmitted * INV_PI * job_light[job].rgb;
     }
     radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
     textureStore(output, id.xy, vec4f(radiance, 1.0));
