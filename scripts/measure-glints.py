@@ -15,7 +15,6 @@ reference's own being the change the motion really makes. Report 003 §2.7 exper
 form this implementation allows (see the document's notes).
 Options: --sizes WxH[,WxH...], --doc NAME, --allow-dirty.
 """
-import argparse
 import json
 import math
 import sys
@@ -40,15 +39,11 @@ def frame_ms(stats):
 
 
 def main():
-    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--sizes", default="128x128,256x256")
-    args.add_argument("--doc", default="glints-lavapipe")
-    args.add_argument("--allow-dirty", action="store_true")
-    args = args.parse_args()
-    m.refuse_dirty_tree(args.allow_dirty, SCRIPT)
-    rtgi = m.rtgi_binary()
-    commit = m.describe()
-    start_load = m.load_average()
+    def options(parser):
+        parser.add_argument("--sizes", default="128x128,256x256")
+
+    args, rtgi, commit, start_load = m.script_arguments(
+        SCRIPT, __doc__.splitlines()[0], "glints-lavapipe", options)
 
     def render(size, name, technique, settings=(), frames="3", extra=()):
         out = OUT / f"{size}-{name}.exr"

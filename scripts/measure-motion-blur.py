@@ -15,7 +15,6 @@ sharp frame's, and the post-process's GPU time per frame (curves: listing the mo
 curves + the resolve; linear: velocities + tile maxima + the gather) next to `direct`'s whole frame.
 Options: --size WxH, --frames N, --doc NAME, --allow-dirty.
 """
-import argparse
 import json
 import sys
 
@@ -55,16 +54,12 @@ def pass_mean_ms(stats, name):
 
 
 def main():
-    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--size", default="256x256")
-    args.add_argument("--frames", type=int, default=32)
-    args.add_argument("--doc", default="motion-blur-lavapipe")
-    args.add_argument("--allow-dirty", action="store_true")
-    args = args.parse_args()
-    m.refuse_dirty_tree(args.allow_dirty, SCRIPT)
-    rtgi = m.rtgi_binary()
-    commit = m.describe()
-    start_load = m.load_average()
+    def options(parser):
+        parser.add_argument("--size", default="256x256")
+        parser.add_argument("--frames", type=int, default=32)
+
+    args, rtgi, commit, start_load = m.script_arguments(
+        SCRIPT, __doc__.splitlines()[0], "motion-blur-lavapipe", options)
     n = str(args.frames)
 
     rows = []

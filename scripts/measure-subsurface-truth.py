@@ -16,7 +16,6 @@ of a quarter of its samples. Reports FLIP and relative MSE over the image, and t
 the slab's unlit front (light shining through 12 cm of marble) and of the sphere.
 Options: --size WxH, --spp N (the reference's samples per pixel), --doc NAME, --allow-dirty.
 """
-import argparse
 import json
 import sys
 
@@ -31,16 +30,12 @@ SPP_PER_FRAME = 64
 
 
 def main():
-    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--size", default="64x64")
-    args.add_argument("--spp", type=int, default=4096)
-    args.add_argument("--doc", default="subsurface-truth-lavapipe")
-    args.add_argument("--allow-dirty", action="store_true")
-    args = args.parse_args()
-    m.refuse_dirty_tree(args.allow_dirty, SCRIPT)
-    rtgi = m.rtgi_binary()
-    commit = m.describe()
-    start_load = m.load_average()
+    def options(parser):
+        parser.add_argument("--size", default="64x64")
+        parser.add_argument("--spp", type=int, default=4096)
+
+    args, rtgi, commit, start_load = m.script_arguments(
+        SCRIPT, __doc__.splitlines()[0], "subsurface-truth-lavapipe", options)
     width, height = (int(v) for v in args.size.split("x"))
 
     def render(name, technique, settings, frames=1):

@@ -14,7 +14,6 @@ time of the cluster and traversal passes (the mean of frames 2–4; the samples'
 are the same for every setting and listed once).
 Options: --sizes WxH[,WxH...], --samples N, --doc NAME, --allow-dirty.
 """
-import argparse
 import json
 import sys
 
@@ -42,16 +41,12 @@ def first_ms(stats, name):
 
 
 def main():
-    args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--sizes", default="256x256,512x512,1024x1024")
-    args.add_argument("--samples", default="16384")
-    args.add_argument("--doc", default="subsurface-lavapipe")
-    args.add_argument("--allow-dirty", action="store_true")
-    args = args.parse_args()
-    m.refuse_dirty_tree(args.allow_dirty, SCRIPT)
-    rtgi = m.rtgi_binary()
-    commit = m.describe()
-    start_load = m.load_average()
+    def options(parser):
+        parser.add_argument("--sizes", default="256x256,512x512,1024x1024")
+        parser.add_argument("--samples", default="16384")
+
+    args, rtgi, commit, start_load = m.script_arguments(
+        SCRIPT, __doc__.splitlines()[0], "subsurface-lavapipe", options)
 
     def render(size, name, epsilon, rho, frames="4"):
         out = OUT / f"{size}-{name}.exr"

@@ -84,6 +84,19 @@ def suite_arguments(script, suite, doc, description, extra=None):
     return args, rtgi_binary()
 
 
+def script_arguments(script, description, doc, extra):
+    """The command line of a script that prints one document from its own renders: what `extra(parser)` adds,
+    --doc NAME and --allow-dirty. Refuses a dirty tree unless allowed and builds the binary: returns (args,
+    rtgi, the commit, the load average at the start)."""
+    parser = argparse.ArgumentParser(description=description)
+    extra(parser)
+    parser.add_argument("--doc", default=doc)
+    parser.add_argument("--allow-dirty", action="store_true")
+    args = parser.parse_args()
+    refuse_dirty_tree(args.allow_dirty, script)
+    return args, rtgi_binary(), describe(), load_average()
+
+
 def command_line(script):
     """How the running script was invoked, as a document names it (without --allow-dirty)."""
     return f"python3 scripts/{script}" + "".join(f" {a}" for a in sys.argv[1:] if a != "--allow-dirty")
