@@ -291,3 +291,20 @@ fn random_walk_reflects_chandrasekhars_semi_infinite_albedo() {
         assert!((m / exact - 1.0).abs() < 0.02, "ω = {w}: walk {m} against {exact}");
     }
 }
+
+/// A walk cut short loses its light: the stats count such walks and a warning says so.
+#[test]
+fn truncated_walks_are_counted_and_warned_of() {
+    let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
+    let scene = rtgi::scene::builtin::build("translucent", &[]).expect("translucent");
+    let settings = RenderSettings {
+        technique: "path".into(),
+        technique_settings: vec![("spp".into(), "1".into()), ("walk_steps".into(), "2".into())],
+        width: 16,
+        height: 16,
+        frames: 1,
+    };
+    let out = render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render");
+    assert!(out.stats.counters["truncated_walks"] > 0.0, "{:?}", out.stats.counters);
+    assert!(out.stats.warnings.iter().any(|w| w.contains("cut short")), "{:?}", out.stats.warnings);
+}

@@ -86,6 +86,9 @@ struct PathTracer {
     sample_indices: DispatchSlots,
     samples: u64,
     samples_per_frame: u64,
+    walk_steps: i64,
+    /// Set when the stats are read: random walks were cut short.
+    warnings: Vec<String>,
 }
 
 fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
@@ -149,6 +152,8 @@ fn create(setup: &TechniqueSetup) -> Result<Box<dyn Technique>, RenderError> {
         sample_indices,
         samples: 0,
         samples_per_frame: 0,
+        walk_steps: p.int("walk_steps"),
+        warnings: Vec::new(),
     }))
 }
 
@@ -201,6 +206,14 @@ impl Technique for PathTracer {
             None => samples / (measured.pass_ms(PASS).unwrap_or(measured.frames_wall_ms) / 1e3).max(1e-9),
         };
         let rays_per_sample = rays / samples.max(1.0);
+        self.warnings.clear();
+        if words[2] > 0 {
+            self.warnings.push(format!(
+                "path: {} random walks through translucent media were cut short after walk_steps={} scattering \
+                 events; their light is missing (raise walk_steps)",
+                words[2], self.walk_steps
+            ));
+        }
         Ok(BTreeMap::from([
             ("samples".to_string(), samples),
             ("rays".to_string(), rays),
@@ -209,6 +222,10 @@ impl Technique for PathTracer {
             ("rays_per_second".to_string(), rays_per_sample * samples_per_second),
             ("truncated_walks".to_string(), f64::from(words[2])),
         ]))
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.clone()
     }
 }
 
