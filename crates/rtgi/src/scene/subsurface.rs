@@ -117,12 +117,6 @@ impl Subsurface {
         (z_r, z_r * (1.0 + 4.0 * self.boundary_mismatch() / 3.0))
     }
 
-    /// The classical dipole's diffuse reflectance profile R_d(r) (m⁻²): radiant exitance at distance r
-    /// from a unit flux entering at a point.
-    pub fn profile(&self, r: f32) -> Vec3 {
-        self.dipole(DipoleModel::Classical).profile(r)
-    }
-
     /// The diffusion profile of `model` for this medium.
     pub fn dipole(&self, model: DipoleModel) -> Dipole {
         let alpha = self.reduced_albedo();

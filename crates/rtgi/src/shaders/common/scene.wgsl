@@ -137,6 +137,11 @@ fn vertex_tangent(v: Vertex) -> vec4f {
     return vec4f(oct_decode(unpack2x16snorm(v.tangent_oct)), w);
 }
 
+// Whether material `material` has a translucent medium under its surface.
+fn is_translucent(material: u32) -> bool {
+    return materials[material].medium_eta > 0.0;
+}
+
 fn vertex_material(v: Vertex) -> u32 {
     return v.material_flags & MATERIAL_MASK;
 }

@@ -351,8 +351,11 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let s = load_gsurface(id.xy);
     var radiance = vec3f(0.0);
     var shaded = false;
-    if s.valid && glint_materials[s.material_index].size > 0u {
-        let g = glint_materials[s.material_index];
+    var g: GlintMaterial;
+    if s.valid {
+        g = glint_materials[s.material_index];
+    }
+    if g.size > 0u {
         let xy = vec2f(id.xy) + 0.5 + frame.jitter;
         let dir = primary_ray_through(xy);
         let hit = trace_closest(Ray(frame.camera_position, dir), 0.0, FLT_MAX);

@@ -42,20 +42,21 @@ struct NodeLight {
     _pad1: f32,
 }
 
-// The dipole of a material (all zero for opaque ones). Per channel: σ_tr, real source depth z_r,
-// virtual source height z_v and the weights of the profile's flux and fluence terms.
+// The dipole of a material (all zero for opaque ones; whether a material is translucent, and its η,
+// are in the scene's material table). Per channel: σ_tr, real source depth z_r, virtual source height
+// z_v and the weights of the profile's flux and fluence terms.
 struct Medium {
     transport: vec3f,
-    eta: f32,
+    _pad0: f32,
     z_r: vec3f,
     // B_s: the multiply-scattered light's spatial bandwidth (cycles per metre).
     spatial_bandwidth: f32,
     z_v: vec3f,
-    translucent: u32,
-    k_e: vec3f,
-    _pad0: f32,
-    k_phi: vec3f,
     _pad1: f32,
+    k_e: vec3f,
+    _pad2: f32,
+    k_phi: vec3f,
+    _pad3: f32,
 }
 
 // A cluster of pixels of one translucent mesh (a square of 1, 2², 4² or 8² pixels of one tile) that

@@ -31,7 +31,7 @@ var<workgroup> tile_pixel_angle: f32;
 
 // The mesh (+1) a pixel shows when its material is translucent, else 0.
 fn translucent_key(pixel: vec2u, s: GSurface) -> u32 {
-    if !s.valid || media[s.material_index].translucent == 0u {
+    if !s.valid || !is_translucent(s.material_index) {
         return 0u;
     }
     return textureLoad(gb_instance, vec2i(pixel), 0).r;

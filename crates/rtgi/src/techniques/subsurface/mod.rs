@@ -95,16 +95,16 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMedium {
     pub transport: [f32; 3],
-    pub eta: f32,
+    pub _pad0: f32,
     pub z_r: [f32; 3],
     pub spatial_bandwidth: f32,
     pub z_v: [f32; 3],
-    pub translucent: u32,
+    pub _pad1: f32,
     /// The profile's weights of its flux and fluence terms (`scene::subsurface::Dipole`).
     pub k_e: [f32; 3],
-    pub _pad0: f32,
+    pub _pad2: f32,
     pub k_phi: [f32; 3],
-    pub _pad1: f32,
+    pub _pad3: f32,
 }
 
 /// WGSL `ClusterJob`.
@@ -135,15 +135,12 @@ pub fn media(scene: &Scene, model: DipoleModel) -> (Vec<GpuMedium>, Vec<f32>) {
                 let dipole = m.dipole(model);
                 media.push(GpuMedium {
                     transport: dipole.transport.to_array(),
-                    eta: m.eta,
                     z_r: dipole.z_r.to_array(),
                     spatial_bandwidth: bandwidth::spatial_bandwidth(&dipole) as f32,
                     z_v: dipole.z_v.to_array(),
-                    translucent: 1,
                     k_e: dipole.k_e.to_array(),
-                    _pad0: 0.0,
                     k_phi: dipole.k_phi.to_array(),
-                    _pad1: 0.0,
+                    ..Default::default()
                 });
                 angular.extend(bandwidth::angular_bandwidths(m.eta));
             }

@@ -13,18 +13,15 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     var s = load_gsurface(id.xy);
-    var medium: Medium;
-    if s.valid {
-        medium = media[s.material_index];
-    }
-    let translucent = medium.translucent != 0u;
+    let translucent = s.valid && is_translucent(s.material_index);
     if translucent {
         s.material.base_color = vec3f(0.0);
     }
     var radiance = direct_pixel_radiance(s, id.xy, AREA_SAMPLES, ENV_SAMPLES);
     let job = pixel_job[id.y * frame.size.x + id.x];
     if translucent && job != NO_JOB {
-        let transmitted = 1.0 - fresnel_dielectric(medium.eta, dot(s.normal, s.view));
+        let eta = materials[s.material_index].medium_eta;
+        let transmitted = 1.0 - fresnel_dielectric(eta, dot(s.normal, s.view));
         radiance += transmitted * INV_PI * job_light[job].rgb;
     }
     radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);

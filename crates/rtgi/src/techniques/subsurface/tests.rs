@@ -72,11 +72,9 @@ fn shaders_validate_and_layouts_match() {
         size_of::<GpuMedium>(),
         &[
             ("transport", offset_of!(GpuMedium, transport)),
-            ("eta", offset_of!(GpuMedium, eta)),
             ("z_r", offset_of!(GpuMedium, z_r)),
             ("spatial_bandwidth", offset_of!(GpuMedium, spatial_bandwidth)),
             ("z_v", offset_of!(GpuMedium, z_v)),
-            ("translucent", offset_of!(GpuMedium, translucent)),
             ("k_e", offset_of!(GpuMedium, k_e)),
             ("k_phi", offset_of!(GpuMedium, k_phi)),
         ],
