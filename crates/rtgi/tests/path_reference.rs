@@ -1,7 +1,7 @@
 //! The reference path tracer against exact answers.
 
 use rtgi::gpu::{GpuContext, GpuOptions};
-use rtgi::render::{RenderSettings, render};
+use rtgi::render::{RenderOutput, RenderSettings, render};
 
 fn mean(v: &[f32]) -> f64 {
     v.iter().map(|x| f64::from(*x)).sum::<f64>() / v.len() as f64
@@ -49,6 +49,17 @@ fn render_path(
     extra: &[(&str, &str)],
 ) -> rtgi::image::HdrImage {
     let scene = rtgi::scene::builtin::build(scene, &[]).expect("scene");
+    render_scene(ctx, &scene, size, spp, extra).image
+}
+
+/// `path` on `scene` at size² with `spp` samples per pixel (frames of up to 64) and the `extra` settings.
+fn render_scene(
+    ctx: &GpuContext,
+    scene: &rtgi::scene::Scene,
+    size: u32,
+    spp: u32,
+    extra: &[(&str, &str)],
+) -> RenderOutput {
     let mut technique_settings = vec![("spp".to_string(), spp.min(64).to_string())];
     technique_settings.extend(extra.iter().map(|(k, v)| (k.to_string(), v.to_string())));
     let settings = RenderSettings {
@@ -58,7 +69,7 @@ fn render_path(
         height: size,
         frames: spp.div_ceil(64),
     };
-    render(ctx, &scene, &settings, &mut |_, _| {}).expect("render").image
+    render(ctx, scene, &settings, &mut |_, _| {}).expect("render")
 }
 
 /// Light sampling only, BRDF sampling only and their MIS combination are three unbiased estimators of
@@ -169,14 +180,7 @@ fn white_translucent_sphere(
         eta: 1.3,
     };
     scene.materials[2] = Material { roughness, ..Material::translucent("white", medium) };
-    let settings = RenderSettings {
-        technique: "path".into(),
-        technique_settings: vec![("spp".into(), spp.min(64).to_string()), ("nee".into(), nee.into())],
-        width: 32,
-        height: 32,
-        frames: spp.div_ceil(64),
-    };
-    let out = render(ctx, &scene, &settings, &mut |_, _| {}).expect("render");
+    let out = render_scene(ctx, &scene, 32, spp, &[("nee", nee)]);
     (out.image, out.stats.counters["truncated_walks"])
 }
 
@@ -270,14 +274,7 @@ fn random_walk_reflects_chandrasekhars_semi_infinite_albedo() {
         },
         ..Default::default()
     };
-    let settings = RenderSettings {
-        technique: "path".into(),
-        technique_settings: vec![("spp".into(), "64".into())],
-        width: 32,
-        height: 32,
-        frames: 4,
-    };
-    let out = render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render");
+    let out = render_scene(&ctx, &scene, 32, 256, &[]);
     assert_eq!(out.stats.counters["truncated_walks"], 0.0);
     for (c, w) in omega.iter().enumerate() {
         let (h1, moment) = chandrasekhar_h(*w, 1.0);
@@ -297,14 +294,7 @@ fn random_walk_reflects_chandrasekhars_semi_infinite_albedo() {
 fn truncated_walks_are_counted_and_warned_of() {
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let scene = rtgi::scene::builtin::build("translucent", &[]).expect("translucent");
-    let settings = RenderSettings {
-        technique: "path".into(),
-        technique_settings: vec![("spp".into(), "1".into()), ("walk_steps".into(), "2".into())],
-        width: 16,
-        height: 16,
-        frames: 1,
-    };
-    let out = render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render");
+    let out = render_scene(&ctx, &scene, 16, 1, &[("walk_steps", "2")]);
     assert!(out.stats.counters["truncated_walks"] > 0.0, "{:?}", out.stats.counters);
     assert!(out.stats.warnings.iter().any(|w| w.contains("cut short")), "{:?}", out.stats.warnings);
 }
