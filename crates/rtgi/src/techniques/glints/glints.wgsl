@@ -9,6 +9,13 @@
 // bin's share of the footprint's normals. Analytic lights use it exactly (one shadow test per light);
 // emissive triangles and the environment use light samples weighted by it. Other pixels are shaded as
 // the `direct` pass shades them. Progressive: the stochastic light samples average over frames.
+//
+// With GLINT_ENV_SH (part b of the paper) the environment's specular light is integrated in basis
+// space instead: the footprint's normal distribution, as SH over the half vector (each bin's GGX lobe,
+// a zonal harmonic turned to the bin's normal), dotted with the view's half-vector-space lighting
+// (environment.wgsl), gives the unshadowed L_u in one evaluation; shadows multiply it by the ratio
+// estimator of Heitz et al. 2018, Σ f̂ L V / p over Σ f̂ L / p of the same environment samples, whose
+// sums are accumulated over frames (so the ratio converges) in `env_history`.
 
 #import common/direct_light.wgsl
 #import common/ray_differentials.wgsl
@@ -36,6 +43,26 @@ struct GlintMaterial {
 // COUNTER_* below.
 @group(2) @binding(3) var<storage, read_write> counters: array<atomic<u32>>;
 @group(2) @binding(4) var output: texture_storage_2d<rgba32float, read_write>;
+
+#if GLINT_ENV_SH
+// Per view of environment.wgsl's latitude–longitude grid, the ENV_ORDER² SH coefficients of its
+// half-vector-space lighting (rgb).
+@group(2) @binding(5) var<storage, read> env_table: array<vec4f>;
+// Per roughness step, the GGX lobe's ENV_ORDER zonal coefficients k_l.
+@group(2) @binding(6) var<storage, read> lobe_zh: array<f32>;
+
+// Per pixel, the running means over the frames since the last restart.
+struct EnvHistory {
+    // Everything but the environment's specular light.
+    rest: vec4f,
+    // L_u, the unshadowed specular light of the environment by the SH integration.
+    unshadowed: vec4f,
+    // The environment samples' specular light, Σ f̂ L V / p and Σ f̂ L / p.
+    sampled_shadowed: vec4f,
+    sampled_unshadowed: vec4f,
+}
+@group(2) @binding(7) var<storage, read_write> env_history: array<EnvHistory>;
+#endif
 
 const COUNTER_PIXELS: u32 = 0u;
 const COUNTER_BINS: u32 = 1u;
@@ -182,25 +209,41 @@ struct LightSlots {
     direction: array<vec3f, SLOTS>,
     light: array<vec3f, SLOTS>,
     distance: array<f32, SLOTS>,
-    // The analytic light's index, or NO_LIGHT for a traced sample.
+    // The analytic light's index, NO_LIGHT for a sample of emissive triangles, ENV_LIGHT for one of
+    // the environment.
     analytic: array<u32, SLOTS>,
-    // Σ_b w_b f(n_b; v, l) (n_b·l)⁺ over the bins so far.
+    // Σ_b w_b f(n_b; v, l) (n_b·l)⁺ over the bins so far (without the specular part for environment
+    // samples under GLINT_ENV_SH, which goes to `specular`).
     reflectance: array<vec3f, SLOTS>,
+    specular: array<vec3f, SLOTS>,
     count: u32,
 }
 
 const NO_LIGHT: u32 = 0xffffffffu;
+const ENV_LIGHT: u32 = 0xfffffffeu;
+// A slot's `distance` for a direction below the surface: occluded by the surface itself.
+const BELOW_SURFACE: f32 = -1.0;
 
 fn add_slot(slots: ptr<function, LightSlots>, s: GSurface, direction: vec3f, light: vec3f, distance: f32, analytic: u32) {
-    if dot(s.geometric_normal, direction) <= 0.0 || max3(light) <= 0.0 {
+    var d = distance;
+    if dot(s.geometric_normal, direction) <= 0.0 {
+        // The ratio estimator's denominator must see environment light from below the surface too,
+        // since L_u includes what tilted microfacets would reflect of it; the surface occludes it.
+        if !(GLINT_ENV_SH && analytic == ENV_LIGHT) {
+            return;
+        }
+        d = BELOW_SURFACE;
+    }
+    if max3(light) <= 0.0 {
         return;
     }
     let k = (*slots).count;
     (*slots).direction[k] = direction;
     (*slots).light[k] = light;
-    (*slots).distance[k] = distance;
+    (*slots).distance[k] = d;
     (*slots).analytic[k] = analytic;
     (*slots).reflectance[k] = vec3f(0.0);
+    (*slots).specular[k] = vec3f(0.0);
     (*slots).count = k + 1u;
 }
 
@@ -229,7 +272,7 @@ fn fill_slots(slots: ptr<function, LightSlots>, s: GSurface, origin: vec3f, pixe
         } else {
             let sample = environment_incident(s.normal, rng_next2(&rng));
             if i >= first {
-                add_slot(slots, s, sample.direction, sample.weight / f32(env_n), sample.distance, NO_LIGHT);
+                add_slot(slots, s, sample.direction, sample.weight / f32(env_n), sample.distance, ENV_LIGHT);
             }
         }
     }
@@ -242,34 +285,201 @@ fn reflect_bin(slots: ptr<function, LightSlots>, m: SurfaceMaterial, view: vec3f
         let l = (*slots).direction[k];
         let cos_theta = dot(n, l);
         if cos_theta > 0.0 {
-            (*slots).reflectance[k] += w * brdf_eval(m, n, view, l) * cos_theta;
+            if GLINT_ENV_SH && (*slots).analytic[k] == ENV_LIGHT {
+                let t = brdf_terms(m, n, view, l);
+                let diffuse = (1.0 - m.metallic) * t.dielectric_diffuse;
+                (*slots).reflectance[k] += w * diffuse * cos_theta;
+                (*slots).specular[k] += w * (brdf_eval(m, n, view, l) - diffuse) * cos_theta;
+            } else {
+                (*slots).reflectance[k] += w * brdf_eval(m, n, view, l) * cos_theta;
+            }
         }
     }
 }
 
-// The slots' light, each through its shadow test.
-fn shade_slots(slots: ptr<function, LightSlots>, s: GSurface, origin: vec3f) -> vec3f {
+// The environment samples' specular light with and without their shadow tests (the ratio
+// estimator's numerator and denominator).
+struct RatioSums {
+    shadowed: vec3f,
+    unshadowed: vec3f,
+}
+
+// The slots' light, each through its shadow test; environment samples' specular light goes to `ratio`.
+fn shade_slots(slots: ptr<function, LightSlots>, s: GSurface, origin: vec3f, ratio: ptr<function, RatioSums>) -> vec3f {
     var radiance = vec3f(0.0);
     for (var k = 0u; k < (*slots).count; k++) {
         let value = (*slots).reflectance[k] * (*slots).light[k];
-        if max3(value) <= 0.0 {
+        let specular = (*slots).specular[k] * (*slots).light[k];
+        if max3(value + specular) <= 0.0 {
             continue;
         }
         let sample = UnshadowedSample(value, (*slots).direction[k], (*slots).distance[k]);
         let light = (*slots).analytic[k];
         var visible = 0.0;
-        if light == NO_LIGHT {
+        if sample.distance == BELOW_SURFACE {
+            visible = 0.0;
+        } else if light == NO_LIGHT || light == ENV_LIGHT {
             visible = sample_visibility(sample, origin);
         } else {
             visible = analytic_visibility(lights[light], s, sample, origin, false);
         }
         radiance += value * visible;
+        (*ratio).shadowed += specular * visible;
+        (*ratio).unshadowed += specular;
     }
     return radiance;
 }
 
+#if GLINT_ENV_SH
+
+// ---- Basis-space integration of the environment (GLINT_ENV_SH) ----
+
+// The four views of the lighting table around a direction (environment frame) and their bilinear
+// weights: first coefficient of each view's row of env_table.
+struct ViewCells {
+    first: vec4u,
+    weight: vec4f,
+}
+
+fn view_cells(v: vec3f) -> ViewCells {
+    let theta = acos(clamp(v.z, -1.0, 1.0));
+    var phi = atan2(v.y, v.x);
+    if phi < 0.0 {
+        phi += TWO_PI;
+    }
+    let row = min(theta / PI * f32(ENV_VIEW_ROWS - 1u), f32(ENV_VIEW_ROWS - 1u) - 1e-4);
+    let column = phi / TWO_PI * f32(ENV_VIEW_COLUMNS);
+    let r0 = u32(row);
+    let c0 = u32(column) % ENV_VIEW_COLUMNS;
+    let c1 = (c0 + 1u) % ENV_VIEW_COLUMNS;
+    let t = vec2f(fract(column), row - f32(r0));
+    let count = ENV_ORDER * ENV_ORDER;
+    let first = vec4u(r0 * ENV_VIEW_COLUMNS + c0, r0 * ENV_VIEW_COLUMNS + c1,
+        (r0 + 1u) * ENV_VIEW_COLUMNS + c0, (r0 + 1u) * ENV_VIEW_COLUMNS + c1) * count;
+    let weight = vec4f((1.0 - t.x) * (1.0 - t.y), t.x * (1.0 - t.y), (1.0 - t.x) * t.y, t.x * t.y);
+    return ViewCells(first, weight);
+}
+
+// Coefficient k of the view's half-vector-space lighting.
+fn view_lighting(c: ViewCells, k: u32) -> vec3f {
+    return c.weight.x * env_table[c.first.x + k].rgb + c.weight.y * env_table[c.first.y + k].rgb
+        + c.weight.z * env_table[c.first.z + k].rgb + c.weight.w * env_table[c.first.w + k].rgb;
+}
+
+// The GGX lobe's zonal coefficient k_l at a roughness (linear between the table's steps).
+fn lobe_coefficient(roughness: f32, l: u32) -> f32 {
+    let x = saturate(roughness) * f32(ENV_ROUGHNESS_STEPS - 1u);
+    let i = min(u32(x), ENV_ROUGHNESS_STEPS - 2u);
+    let t = x - f32(i);
+    return mix(lobe_zh[i * ENV_ORDER + l], lobe_zh[(i + 1u) * ENV_ORDER + l], t);
+}
+
+// Up to SH_LANES bins at a time, one lane each (z, azimuth and weight per bin) in vec4 halves, so
+// the SH recurrences run as vector arithmetic and each coefficient of the view's lighting is read once
+// per group.
+const SH_LANES: u32 = 8u;
+
+struct ShBins {
+    z: array<vec4f, 2>,
+    cos_phi: array<vec4f, 2>,
+    sin_phi: array<vec4f, 2>,
+    weight_r: array<vec4f, 2>,
+    weight_g: array<vec4f, 2>,
+    weight_b: array<vec4f, 2>,
+    count: u32,
+}
+
+fn lane_sums(g: ShBins, q: array<vec4f, 2>) -> vec3f {
+    return vec3f(dot(g.weight_r[0], q[0]) + dot(g.weight_r[1], q[1]),
+        dot(g.weight_g[0], q[0]) + dot(g.weight_g[1], q[1]),
+        dot(g.weight_b[0], q[0]) + dot(g.weight_b[1], q[1]));
+}
+
+// Σ_b w_b Σ_lm k_l L̂_lm(v) y_lm(n_b) over the bins, the SH double product of the bins' lobes with the
+// view's lighting, by the normalised associated-Legendre recurrences (hsh.rs's real SH: index
+// l(l+1)+m, cos mφ for m > 0, sin |m|φ for m < 0, no Condon–Shortley phase).
+fn sh_bins_light(g: ShBins, cells: ViewCells, roughness: f32) -> vec3f {
+    var sin_theta: array<vec4f, 2>;
+    var q_mm: array<vec4f, 2>;
+    var cos_m: array<vec4f, 2>;
+    var sin_m: array<vec4f, 2>;
+    for (var h = 0u; h < 2u; h++) {
+        sin_theta[h] = sqrt(max(vec4f(0.0), 1.0 - g.z[h] * g.z[h]));
+        q_mm[h] = vec4f(0.28209479177387814);
+        cos_m[h] = vec4f(1.0);
+        sin_m[h] = vec4f(0.0);
+    }
+    var light = vec3f(0.0);
+    for (var m = 0u; m < ENV_ORDER; m++) {
+        if m > 0u {
+            let growth = sqrt(f32(2u * m + 1u) / f32(2u * m));
+            for (var h = 0u; h < 2u; h++) {
+                q_mm[h] *= sin_theta[h] * growth;
+                let c = cos_m[h] * g.cos_phi[h] - sin_m[h] * g.sin_phi[h];
+                sin_m[h] = sin_m[h] * g.cos_phi[h] + cos_m[h] * g.sin_phi[h];
+                cos_m[h] = c;
+            }
+        }
+        var q = q_mm;
+        var q_prev: array<vec4f, 2>;
+        for (var l = m; l < ENV_ORDER; l++) {
+            if l > m {
+                let fl = f32(l);
+                let fm = f32(m);
+                let a = sqrt((4.0 * fl * fl - 1.0) / (fl * fl - fm * fm));
+                let b = sqrt(max(0.0, ((fl - 1.0) * (fl - 1.0) - fm * fm) / (4.0 * (fl - 1.0) * (fl - 1.0) - 1.0)));
+                for (var h = 0u; h < 2u; h++) {
+                    let next = a * (g.z[h] * q[h] - b * q_prev[h]);
+                    q_prev[h] = q[h];
+                    q[h] = next;
+                }
+            }
+            let k = lobe_coefficient(roughness, l);
+            let centre = l * l + l;
+            let dc = lane_sums(g, array<vec4f, 2>(q[0] * cos_m[0], q[1] * cos_m[1]));
+            if m == 0u {
+                light += k * dc * view_lighting(cells, centre);
+            } else {
+                let ds = lane_sums(g, array<vec4f, 2>(q[0] * sin_m[0], q[1] * sin_m[1]));
+                light += (k * 1.4142135623730951) * (dc * view_lighting(cells, centre + m) + ds * view_lighting(cells, centre - m));
+            }
+        }
+    }
+    return light;
+}
+
+// Adds a bin (normal in the environment's frame, weight w_b times its F·G/(4 n_b·v) factor) to the
+// group; a full group is integrated into `light` and emptied.
+fn push_sh_bin(g: ptr<function, ShBins>, n: vec3f, weight: vec3f, cells: ViewCells, roughness: f32, light: ptr<function, vec3f>) {
+    let i = (*g).count;
+    let h = i / 4u;
+    let lane = i % 4u;
+    let r = length(n.xy);
+    let e = select(vec2f(1.0, 0.0), n.xy / r, r > 1e-20);
+    (*g).z[h][lane] = n.z;
+    (*g).cos_phi[h][lane] = e.x;
+    (*g).sin_phi[h][lane] = e.y;
+    (*g).weight_r[h][lane] = weight.r;
+    (*g).weight_g[h][lane] = weight.g;
+    (*g).weight_b[h][lane] = weight.b;
+    (*g).count = i + 1u;
+    if (*g).count == SH_LANES {
+        *light += sh_bins_light(*g, cells, roughness);
+        *g = ShBins();
+    }
+}
+#endif
+
 // Direct light of glint pixel `pixel`, whose primary ray hits `hit` through framebuffer point xy.
-fn shade_glints(g: GlintMaterial, gbuffer: GSurface, hit: Hit, pixel: vec2u, xy: vec2f, dir: vec3f) -> vec3f {
+// The light of a glint pixel: `rest` is final; under GLINT_ENV_SH the environment's specular light is
+// `sh_unshadowed` times the ratio of `ratio`'s sums, which the caller accumulates over frames.
+struct GlintLight {
+    rest: vec3f,
+    sh_unshadowed: vec3f,
+    ratio: RatioSums,
+}
+
+fn shade_glints(g: GlintMaterial, gbuffer: GSurface, hit: Hit, pixel: vec2u, xy: vec2f, dir: vec3f) -> GlintLight {
     let t = triangle_vertices(hit.triangle);
     let vf = vertex_frame(t, hit.u, hit.v, dir);
     var s = gbuffer;
@@ -307,6 +517,13 @@ fn shade_glints(g: GlintMaterial, gbuffer: GSurface, hit: Hit, pixel: vec2u, xy:
     var active_bins = 0u;
     var groups = 0u;
     var slots: LightSlots;
+    var ratio = RatioSums();
+    var sh_light = vec3f(0.0);
+#if GLINT_ENV_SH
+    let sh_on = scene_info.env_kind != ENV_NONE;
+    let cells = view_cells(environment_direction(s.view));
+    var sh_bins = ShBins();
+#endif
     let bins = g.bins * g.bins;
     var first = 0u;
     loop {
@@ -329,18 +546,36 @@ fn shade_glints(g: GlintMaterial, gbuffer: GSurface, hit: Hit, pixel: vec2u, xy:
             if c > 1e-3 && dot(n, s.view) > 0.0 {
                 reflect_bin(&slots, s.material, s.view, n, c / total);
                 active_bins += select(0u, 1u, first == 0u);
+#if GLINT_ENV_SH
+                if sh_on && first == 0u {
+                    // The bin's F G / (4 n_b·v) at its mirror direction: the shared specular BRDF there
+                    // over its D(1) (the paper's FG, per bin).
+                    let mirror = 2.0 * dot(n, s.view) * n - s.view;
+                    let alpha = ggx_alpha(s.material.roughness);
+                    let t = brdf_terms(s.material, n, s.view, mirror);
+                    let specular = mix(vec3f(t.dielectric_specular), t.metal, s.material.metallic);
+                    let fg = specular * dot(n, mirror) / ggx_d(alpha, 1.0);
+                    push_sh_bin(&sh_bins, environment_direction(n), (c / total) * fg, cells,
+                        s.material.roughness, &sh_light);
+                }
+#endif
             }
         }
-        radiance += shade_slots(&slots, s, origin);
+        radiance += shade_slots(&slots, s, origin, &ratio);
         first += SLOTS;
         if first >= sequence {
             break;
         }
     }
+#if GLINT_ENV_SH
+    if sh_bins.count > 0u {
+        sh_light += sh_bins_light(sh_bins, cells, s.material.roughness);
+    }
+#endif
     atomicAdd(&counters[COUNTER_PIXELS], 1u);
     atomicAdd(&counters[COUNTER_BINS], active_bins);
     atomicAdd(&counters[COUNTER_GROUPS], groups);
-    return radiance;
+    return GlintLight(radiance, sh_light, ratio);
 }
 
 @compute @workgroup_size(TILE, TILE)
@@ -349,7 +584,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     let s = load_gsurface(id.xy);
-    var radiance = vec3f(0.0);
+    var light = GlintLight();
     var shaded = false;
     var g: GlintMaterial;
     if s.valid {
@@ -362,13 +597,28 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         // The G-buffer may see another surface where rasterisation and the ray disagree (edges):
         // such pixels are shaded as `direct` shades them.
         if hit_found(hit) && vertex_material(triangle_vertices(hit.triangle)[0]) == s.material_index {
-            radiance = s.material.emission + shade_glints(g, s, hit, id.xy, xy, dir);
+            light = shade_glints(g, s, hit, id.xy, xy, dir);
+            light.rest += s.material.emission;
             shaded = true;
         }
     }
     if !shaded {
-        radiance = direct_pixel_radiance(s, id.xy, AREA_SAMPLES, ENV_SAMPLES);
+        light.rest = direct_pixel_radiance(s, id.xy, AREA_SAMPLES, ENV_SAMPLES);
     }
-    radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
+#if GLINT_ENV_SH
+    let pixel = id.y * frame.size.x + id.x;
+    var h = env_history[pixel];
+    h.rest = vec4f(accumulate_mean(h.rest.rgb, light.rest, frame.sample_index), 0.0);
+    h.unshadowed = vec4f(accumulate_mean(h.unshadowed.rgb, light.sh_unshadowed, frame.sample_index), 0.0);
+    h.sampled_shadowed = vec4f(accumulate_mean(h.sampled_shadowed.rgb, light.ratio.shadowed, frame.sample_index), 0.0);
+    h.sampled_unshadowed = vec4f(accumulate_mean(h.sampled_unshadowed.rgb, light.ratio.unshadowed, frame.sample_index), 0.0);
+    env_history[pixel] = h;
+    // Where no sample has yet seen the lobe's light the ratio is unknown: unshadowed until one does.
+    let known = h.sampled_unshadowed.rgb > vec3f(0.0);
+    let visible = select(vec3f(1.0), h.sampled_shadowed.rgb / max(h.sampled_unshadowed.rgb, vec3f(1e-30)), known);
+    let radiance = h.rest.rgb + h.unshadowed.rgb * visible;
+#else
+    let radiance = accumulate_mean(textureLoad(output, id.xy).rgb, light.rest, frame.sample_index);
+#endif
     textureStore(output, id.xy, vec4f(radiance, 1.0));
 }

@@ -12,14 +12,18 @@
 //! light gives the converged glint pattern of a point, spot or directional light: no sub-pixel sampling,
 //! no noise, no temporal aliasing.
 //!
-//! Not built (yet): the thesis's part (b), basis-space integration of the environment (the histogram
-//! projected onto SH with pre-rotated lobes, a double product with view-dependent half-vector lighting
-//! tables) and its ratio estimator for shadows. Emissive triangles and the environment are lit here by
-//! light samples weighted by the filtered reflectance: unbiased, but noisy per frame like `direct`,
-//! converging over frames. The footprint is an axis-aligned box (as the thesis's, though moment-matched
-//! rather than bounding), so the shape of sheared or rotated anisotropic footprints is lost; a
-//! microfacet's own roughness is the material's.
+//! Emissive triangles and the environment are lit by light samples weighted by the filtered
+//! reflectance: unbiased, but noisy per frame like `direct`, converging over frames. With `env_order`
+//! above 0 the environment's specular light is instead part (b) of the paper, basis-space
+//! integration ([`environment`]): the footprint's normal distribution as SH over the half vector (each
+//! bin's GGX lobe, a zonal harmonic turned to the bin's normal, weighted by the bin's F·G at its
+//! mirror direction) dotted with the view's half-vector-space lighting, converged in one frame but
+//! for the lighting's SH truncation; shadows by the ratio estimator of Heitz et al. 2018 over the same
+//! environment samples, accumulated over frames. The footprint is an axis-aligned box (as the
+//! thesis's, though moment-matched rather than bounding), so the shape of sheared or rotated
+//! anisotropic footprints is lost; a microfacet's own roughness is the material's.
 
+pub mod environment;
 pub mod histogram;
 #[cfg(test)]
 mod tests;
@@ -41,12 +45,26 @@ use super::{
 };
 use histogram::NormalHistogram;
 
-pub const PARAMS: [ParamSpec; 9] = with_direct_params![ParamSpec {
-    name: "bins",
-    kind: ParamKind::Int { min: 3, max: 33 },
-    default: "17",
-    doc: "histogram bins along each axis of the projected disc of normals (odd keeps a bin centred on the macro normal); memory is (bins² + bins) × 4 bytes per texel",
-}];
+pub const PARAMS: [ParamSpec; 11] = with_direct_params![
+    ParamSpec {
+        name: "bins",
+        kind: ParamKind::Int { min: 3, max: 33 },
+        default: "17",
+        doc: "histogram bins along each axis of the projected disc of normals (odd keeps a bin centred on the macro normal); memory is (bins² + bins) × 4 bytes per texel",
+    },
+    ParamSpec {
+        name: "env_order",
+        kind: ParamKind::Int { min: 0, max: 24 },
+        default: "0",
+        doc: "0: the environment through light samples; N: its specular light by basis-space integration with SH of N bands (order N, N² coefficients) over the half vector, shadows by the ratio estimator",
+    },
+    ParamSpec {
+        name: "env_views",
+        kind: ParamKind::Int { min: 4, max: 128 },
+        default: "24",
+        doc: "with env_order > 0: view directions of the half-vector lighting table, (env_views + 1) latitudes × 2 env_views longitudes, each env_order² rgb coefficients",
+    },
+];
 
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "glints",
@@ -164,9 +182,13 @@ impl SceneHistograms {
 
 pub struct Glints {
     pipeline: wgpu::ComputePipeline,
+    environment: Option<environment::EnvironmentTables>,
+    history_bytes: u64,
     group: wgpu::BindGroup,
     counters: wgpu::Buffer,
     histogram_bytes: u64,
+    width: u32,
+    height: u32,
     histogram_count: usize,
     build_ms: f64,
     warnings: Vec<String>,
@@ -235,21 +257,63 @@ impl Glints {
                 .build(ctx)?,
             BufferBuilder::new("glints counters", 4 * COUNTERS.len() as u64).storage().copy().build(ctx)?,
         ];
+        let mut order = setup.params.int("env_order") as u32;
+        let env_samples = setup.params.int("env_samples") as u32;
+        if order > 0 && setup.scene.environment == crate::scene::Environment::None {
+            warnings.push("glints: env_order has no effect: the scene has no environment".to_string());
+            order = 0;
+        }
+        if order > 0 && env_samples == 0 {
+            warnings.push(
+                "glints: env_samples=0 leaves the ratio estimator no samples: the environment's specular light is unshadowed"
+                    .to_string(),
+            );
+        }
+        let environment = if order > 0 {
+            let shape = environment::TableShape::new(order, setup.params.int("env_views") as u32);
+            Some(environment::EnvironmentTables::new(setup, shape)?)
+        } else {
+            None
+        };
+        let (width, height) = (setup.output.width(), setup.output.height());
+        let history_bytes = if environment.is_some() { 64 * u64::from(width) * u64::from(height) } else { 0 };
+        let history = environment
+            .as_ref()
+            .map(|_| BufferBuilder::new("glints environment history", history_bytes).storage().build(ctx))
+            .transpose()?;
         let mut entries: Vec<wgpu::BindGroupLayoutEntry> =
             (0..3).map(|b| storage_buffer_entry(b, true)).collect();
         entries.push(storage_buffer_entry(3, false));
         entries.push(storage_texture_entry(4, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite));
+        if environment.is_some() {
+            entries.extend([
+                storage_buffer_entry(5, true),
+                storage_buffer_entry(6, true),
+                storage_buffer_entry(7, false),
+            ]);
+        }
         let layout = compute::layout(ctx, "glints", &entries);
         let output = setup.output.create_view(&Default::default());
         let mut resources: Vec<wgpu::BindingResource> =
             buffers.iter().map(|b| b.as_entire_binding()).collect();
         resources.push(wgpu::BindingResource::TextureView(&output));
+        if let (Some(tables), Some(history)) = (&environment, &history) {
+            resources.extend([
+                tables.table.as_entire_binding(),
+                tables.lobe_zh.as_entire_binding(),
+                history.as_entire_binding(),
+            ]);
+        }
         let group = compute::bind_group(ctx, "glints", &layout, &resources);
-        let defines = setup
+        let mut defines = setup
             .gpu_scene
             .bvh_defines(Defines::new())
             .u32("AREA_SAMPLES", setup.params.int("area_samples") as u32)
-            .u32("ENV_SAMPLES", setup.params.int("env_samples") as u32);
+            .u32("ENV_SAMPLES", env_samples)
+            .bool("GLINT_ENV_SH", environment.is_some());
+        if let Some(tables) = &environment {
+            defines = tables.shape.defines(defines);
+        }
         let pipeline = compute::pipeline(
             ctx,
             "glints",
@@ -260,9 +324,13 @@ impl Glints {
         )?;
         Ok(Glints {
             pipeline,
+            environment,
+            history_bytes,
             group,
             counters: buffers[3].clone(),
             histogram_bytes,
+            width,
+            height,
             histogram_count: scene_histograms.histograms.len(),
             build_ms,
             warnings,
@@ -278,6 +346,9 @@ impl Glints {
 
 impl Technique for Glints {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
+        if let Some(tables) = &mut self.environment {
+            tables.update(fc, profiler)?;
+        }
         profiler.pass(fc.ctx, "glints", |encoder| {
             encoder.clear_buffer(&self.counters, 0, None);
             compute::dispatch_pixels(
@@ -299,13 +370,29 @@ impl Technique for Glints {
         out.insert("glints_histograms".into(), self.histogram_count as f64);
         out.insert("glints_histogram_bytes".into(), self.histogram_bytes as f64);
         out.insert("glints_histogram_build_ms".into(), self.build_ms);
-        out.insert("output_bytes_per_pixel".into(), 16.0);
+        let pixels = f64::from(self.width) * f64::from(self.height);
+        out.insert("output_bytes_per_pixel".into(), 16.0 + self.history_bytes as f64 / pixels);
+        if let Some(tables) = &self.environment {
+            out.insert("glints_env_table_bytes".into(), tables.shape.table_bytes() as f64);
+            out.insert("glints_env_table_projections".into(), tables.projections as f64);
+        }
         Ok(out)
     }
 
     // Lights and the environment are read every frame and the footprint is found by a ray through the
-    // current geometry; the histograms depend on the materials only.
-    fn scene_changed(&mut self, _: &GpuContext, _: &GpuScene, _: SceneChange) -> Result<bool, RenderError> {
+    // current geometry; the histograms depend on the materials only, the environment's tables on what
+    // it holds (not on its turn: they are in its own frame).
+    fn scene_changed(
+        &mut self,
+        _: &GpuContext,
+        _: &GpuScene,
+        change: SceneChange,
+    ) -> Result<bool, RenderError> {
+        if change == SceneChange::Environment
+            && let Some(tables) = &mut self.environment
+        {
+            tables.invalidate();
+        }
         Ok(true)
     }
 

@@ -151,7 +151,14 @@ fn bins_shrink_to_fit_the_binding_limit() {
 #[test]
 fn shader_validates_and_layout_matches() {
     let defines = Defines::new().u32("TILE", 8).u32("AREA_SAMPLES", 4).u32("ENV_SAMPLES", 4);
-    let m = validate("glints", include_str!("glints.wgsl"), &defines);
+    let tables = environment::TableShape::new(6, 8);
+    validate(
+        "glints",
+        include_str!("glints.wgsl"),
+        &tables.defines(defines.clone().bool("GLINT_ENV_SH", true)),
+    );
+    validate("glints environment", include_str!("environment.wgsl"), &tables.defines(Defines::new()));
+    let m = validate("glints", include_str!("glints.wgsl"), &defines.bool("GLINT_ENV_SH", false));
     assert_layout(
         &m,
         "GlintMaterial",
@@ -243,4 +250,52 @@ impl Technique for DirectOnly<'_> {
     fn render_frame(&mut self, fc: &FrameContext, profiler: &mut Profiler) -> Result<(), RenderError> {
         self.0.render(fc, profiler)
     }
+}
+
+/// Mean linear luminance of the pixels in the rectangle (x, y, w, h) of a `width`-wide image.
+fn patch_luminance(image: &[Vec3], width: usize, (x, y, w, h): (usize, usize, usize, usize)) -> f64 {
+    let mut sum = 0.0;
+    for row in y..y + h {
+        for p in &image[row * width + x..row * width + x + w] {
+            sum += f64::from(p.dot(Vec3::new(0.2126, 0.7152, 0.0722)));
+        }
+    }
+    sum / (w * h) as f64
+}
+
+/// Basis-space integration of the environment (part b) against the sampled estimator it replaces, on
+/// the glints scene under the sky (floor and sphere, the sphere's shadow): after 4 frames the SH
+/// image must match a 128-frame sampled render of the same model, in the mean of the floor and of the
+/// sphere and per pixel, and be far closer to it than 4 frames of sampling.
+#[test]
+fn environment_by_sh_matches_sampled_environment() {
+    let (width, height) = (48usize, 32usize);
+    let mut f =
+        crate::techniques::fixture::fixture_with("glints", &[("sky", "sky")], width as u32, height as u32);
+    let mut render = |settings: &[(&str, &str)], frames: u32| {
+        let set: Vec<(String, String)> =
+            settings.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+        let params = ParamValues::from_settings("glints", &PARAMS, &set).expect("settings");
+        let mut glints = Glints::new(&f.setup(&params)).expect("glints");
+        f.render_rgb(&mut glints, frames)
+    };
+    let reference = render(&[("env_samples", "8"), ("seed", "7")], 128);
+    let sampled = render(&[], 4);
+    let sh = render(&[("env_order", "8"), ("env_views", "8")], 4);
+    let sh_error = mean_relative_difference(&sh, &reference);
+    let sampled_error = mean_relative_difference(&sampled, &reference);
+    let floor = (0, 20, 48, 12);
+    let sphere = (16, 4, 16, 14);
+    let floor_ratio = patch_luminance(&sh, width, floor) / patch_luminance(&reference, width, floor);
+    let sphere_ratio = patch_luminance(&sh, width, sphere) / patch_luminance(&reference, width, sphere);
+    eprintln!(
+        "sh {sh_error:.4}, sampled {sampled_error:.4}, floor {floor_ratio:.4}, sphere {sphere_ratio:.4}"
+    );
+    assert!(sh_error < 0.1, "SH environment differs from the sampled one by {sh_error}");
+    assert!(
+        sh_error < 0.5 * sampled_error,
+        "SH {sh_error} not below half of 4 sampled frames' {sampled_error}"
+    );
+    assert!((floor_ratio - 1.0).abs() < 0.03, "floor: SH / sampled = {floor_ratio}");
+    assert!((sphere_ratio - 1.0).abs() < 0.03, "sphere: SH / sampled = {sphere_ratio}");
 }
