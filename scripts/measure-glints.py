@@ -124,10 +124,9 @@ def main():
     for label, t, against in pan_rows:
         lines.append(f"| {label} | {t['flip']:.4f} | {t['rel_mse']:.4f} | "
                      + ("–" if against is None else f"{against:.4f}") + " |")
-    lines += ["", "Not measured here (not built): the thesis's SH basis-space integration of environment "
-              "lighting and its ratio estimator for shadows (report 003 §2.7 experiments 2, 6 and 7); "
-              "`glints` lights the environment and emissive triangles with light samples weighted by the filtered "
-              "reflectance instead."]
+    lines += ["", "Not measured here: the scene has no environment. The thesis's SH basis-space integration of "
+              "environment lighting and its ratio estimator for shadows (`env_order`) are measured by "
+              "`scripts/measure-glints-environment.py` (report 003 §2.7 experiments 2, 4 and 7)."]
     m.write_doc(SCRIPT, args.doc, lines)
 
 

@@ -21,6 +21,7 @@
 #     motion-blur  (no issue)  scripts/measure-motion-blur.py --size 1920x1080 --doc motion-blur-gpu
 #     subsurface   (no issue)  scripts/measure-subsurface.py --sizes 1920x1080 --doc subsurface-gpu
 #     glints       (no issue)  scripts/measure-glints.py --sizes 1920x1080 --doc glints-gpu
+#     glints-environment  (no issue)  scripts/measure-glints-environment.py --size 1920x1080 --doc glints-environment-gpu
 #     subsurface-truth  (no issue)  scripts/measure-subsurface-truth.py --size 512x512 --spp 65536 --doc subsurface-truth-gpu
 #     tests      the whole test suite (.gpu/test.sh)
 # The documents land in docs/measurements/ as on any machine; with $OUT set (the device tool's folder that
@@ -104,6 +105,7 @@ for step in "$@"; do
         motion-blur) cmd=(python3 scripts/measure-motion-blur.py --size 1920x1080 --doc motion-blur-gpu) ;;
         subsurface) cmd=(python3 scripts/measure-subsurface.py --sizes 1920x1080 --doc subsurface-gpu) ;;
         glints) cmd=(python3 scripts/measure-glints.py --sizes 1920x1080 --doc glints-gpu) ;;
+        glints-environment) cmd=(python3 scripts/measure-glints-environment.py --size 1920x1080 --doc glints-environment-gpu) ;;
         subsurface-truth) cmd=(python3 scripts/measure-subsurface-truth.py --size 512x512 --spp 65536 --doc subsurface-truth-gpu) ;;
         tests) rm -rf .gpu/test-out; cmd=(env OUT="$here/.gpu/test-out" bash .gpu/test.sh) ;;
         *) echo "unknown step $name" >> "$log"; continue ;;
