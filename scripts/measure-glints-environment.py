@@ -18,7 +18,6 @@ this implementation allows.
 Options: --size WxH, --doc NAME, --allow-dirty.
 """
 import json
-import math
 import sys
 
 sys.dont_write_bytecode = True
@@ -110,28 +109,16 @@ def main():
         ratios = " | ".join(f"{patches[k]['region']['test_luminance'] / patches[k]['region']['reference_luminance']:.3f}"
                             for k in PATCHES)
         total = None if per_frame is None else per_frame * frames
-        at = "" if label.startswith("sampled") else fmt(interpolate(sampled, total), 4)
+        at = "" if label.startswith("sampled") else fmt(m.log_log_interpolate(sampled, total), 4)
         lines.append(f"| {label} | {frames} | {model_error['flip']:.4f} | {model_error['rel_mse']:.4f} | "
                      f"{truth_error['flip']:.4f} | {truth_error['rel_mse']:.4f} | {ratios} | {fmt(per_frame)} | "
                      f"{fmt(total)} | {tables:.1f} | {at} |")
     wins = [r for r in rows if r[0].startswith("SH") and r[5]
-            and (interpolate(sampled, r[5] * r[1]) or 0.0) > r[2]["rel_mse"]]
+            and (m.log_log_interpolate(sampled, r[5] * r[1]) or 0.0) > r[2]["rel_mse"]]
     lines += ["", f"{len(wins)} of {sum(1 for r in rows if r[0].startswith('SH'))} SH rows have a lower relMSE against "
               "the model than the sampled estimator at the same GPU time (tables apart)"
               + (": " + m.join_and([f"{r[0]} after {r[1]} frame(s)" for r in wins]) if wins else "") + "."]
     m.write_doc(SCRIPT, args.doc, lines)
-
-
-def interpolate(points, ms):
-    """The value at `ms` of (ms, value) points, in log-log between the nearest two (None outside them)."""
-    if ms is None or len(points) < 2:
-        return None
-    points = sorted(points)
-    for (t0, v0), (t1, v1) in zip(points, points[1:]):
-        if t0 <= ms <= t1:
-            a = (math.log(ms) - math.log(t0)) / (math.log(t1) - math.log(t0))
-            return math.exp(math.log(v0) + a * (math.log(v1) - math.log(v0)))
-    return None
 
 
 if __name__ == "__main__":

@@ -110,7 +110,7 @@ def main():
         paths = [(ms, e["flip"]) for label, e, ms, _, _ in rows if label.startswith("path") and ms]
         for label, error, ms, frames, _ in rows:
             total = None if ms is None else ms * frames
-            at = "" if label.startswith("path") else fmt(path_flip_at(paths, total), 4)
+            at = "" if label.startswith("path") else fmt(m.log_log_interpolate(paths, total), 4)
             lines.append(f"| {label} | {error['rmse']:.4f} | {error['rel_mse']:.4f} | {error['flip']:.4f} | "
                          f"{fmt(total)} | {at} |")
     size, (pan_rows, step_px) = temporal
@@ -128,19 +128,6 @@ def main():
               "environment lighting and its ratio estimator for shadows (`env_order`) are measured by "
               "`scripts/measure-glints-environment.py` (report 003 §2.7 experiments 2, 4 and 7)."]
     m.write_doc(SCRIPT, args.doc, lines)
-
-
-def path_flip_at(paths, ms):
-    """The path tracer's FLIP at `ms` per image, interpolated in log-log between its measured sample counts
-    (None outside their range)."""
-    if ms is None or len(paths) < 2:
-        return None
-    paths = sorted(paths)
-    for (t0, f0), (t1, f1) in zip(paths, paths[1:]):
-        if t0 <= ms <= t1:
-            a = (math.log(ms) - math.log(t0)) / (math.log(t1) - math.log(t0))
-            return math.exp(math.log(f0) + a * (math.log(f1) - math.log(f0)))
-    return None
 
 
 def pan(rtgi, size):

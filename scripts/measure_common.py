@@ -297,6 +297,19 @@ def duration(seconds):
     return f"{int(seconds // 60)} min {int(seconds % 60)} s"
 
 
+def log_log_interpolate(points, x):
+    """The value at `x` of (x, value) points, interpolated in log-log between the nearest two (None outside
+    them or with fewer than two)."""
+    if x is None or len(points) < 2:
+        return None
+    points = sorted(points)
+    for (x0, v0), (x1, v1) in zip(points, points[1:]):
+        if x0 <= x <= x1:
+            a = (math.log(x) - math.log(x0)) / (math.log(x1) - math.log(x0))
+            return math.exp(math.log(v0) + a * (math.log(v1) - math.log(v0)))
+    return None
+
+
 def join_and(items):
     items = list(items)
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
