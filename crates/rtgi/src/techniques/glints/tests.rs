@@ -379,9 +379,9 @@ fn lobe_and_lighting_tables_match_quadrature() {
         let n = glam::DQuat::from_axis_angle(axis, degrees.to_radians()) * v;
         let y = crate::hsh::sh(order, n);
         let mut sh = 0.0;
-        for l in 0..order {
+        for (l, k_l) in k.iter().enumerate() {
             for i in l * l..(l + 1) * (l + 1) {
-                sh += k[l] * f64::from(table[4 * (first + i)]) * y[i];
+                sh += k_l * f64::from(table[4 * (first + i)]) * y[i];
             }
         }
         let direct: f64 = quadrature.iter().map(|(h, w)| w * 4.0 * v.dot(*h).max(0.0) * d(h.dot(n))).sum();
