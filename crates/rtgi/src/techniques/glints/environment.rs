@@ -46,6 +46,12 @@ impl TableShape {
         16 * u64::from(self.views()) * u64::from(self.coefficients())
     }
 
+    /// Bytes of the basis values at the half-vector quadrature's directions (kept to compute the
+    /// lighting table again when the environment changes).
+    pub fn basis_bytes(&self) -> u64 {
+        4 * u64::from(self.h_directions()) * u64::from(self.coefficients())
+    }
+
     /// The defines both the tables' passes and the shading pass read.
     pub fn defines(&self, defines: Defines) -> Defines {
         defines
@@ -81,12 +87,8 @@ impl EnvironmentTables {
             .storage()
             .copy()
             .build(ctx)?;
-        let basis = BufferBuilder::new(
-            "glints half-vector basis",
-            4 * u64::from(shape.h_directions()) * u64::from(shape.coefficients()),
-        )
-        .storage()
-        .build(ctx)?;
+        let basis =
+            BufferBuilder::new("glints half-vector basis", shape.basis_bytes()).storage().build(ctx)?;
         let table = BufferBuilder::new("glints environment table", shape.table_bytes())
             .storage()
             .copy()

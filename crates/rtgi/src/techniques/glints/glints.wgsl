@@ -286,10 +286,9 @@ fn reflect_bin(slots: ptr<function, LightSlots>, m: SurfaceMaterial, view: vec3f
         let cos_theta = dot(n, l);
         if cos_theta > 0.0 {
             if GLINT_ENV_SH && (*slots).analytic[k] == ENV_LIGHT {
-                let t = brdf_terms(m, n, view, l);
-                let diffuse = (1.0 - m.metallic) * t.dielectric_diffuse;
-                (*slots).reflectance[k] += w * diffuse * cos_theta;
-                (*slots).specular[k] += w * (brdf_eval(m, n, view, l) - diffuse) * cos_theta;
+                let specular = brdf_eval_specular(m, n, view, l);
+                (*slots).reflectance[k] += w * (brdf_eval(m, n, view, l) - specular) * cos_theta;
+                (*slots).specular[k] += w * specular * cos_theta;
             } else {
                 (*slots).reflectance[k] += w * brdf_eval(m, n, view, l) * cos_theta;
             }
@@ -520,8 +519,8 @@ fn shade_glints(g: GlintMaterial, gbuffer: GSurface, hit: Hit, pixel: vec2u, xy:
     var ratio = RatioSums();
     var sh_light = vec3f(0.0);
 #if GLINT_ENV_SH
-    let sh_on = scene_info.env_kind != ENV_NONE;
     let cells = view_cells(environment_direction(s.view));
+    let peak_d = ggx_d(ggx_alpha(s.material.roughness), 1.0);
     var sh_bins = ShBins();
 #endif
     let bins = g.bins * g.bins;
@@ -547,14 +546,11 @@ fn shade_glints(g: GlintMaterial, gbuffer: GSurface, hit: Hit, pixel: vec2u, xy:
                 reflect_bin(&slots, s.material, s.view, n, c / total);
                 active_bins += select(0u, 1u, first == 0u);
 #if GLINT_ENV_SH
-                if sh_on && first == 0u {
+                if first == 0u {
                     // The bin's F G / (4 n_b·v) at its mirror direction: the shared specular BRDF there
                     // over its D(1) (the paper's FG, per bin).
                     let mirror = 2.0 * dot(n, s.view) * n - s.view;
-                    let alpha = ggx_alpha(s.material.roughness);
-                    let t = brdf_terms(s.material, n, s.view, mirror);
-                    let specular = mix(vec3f(t.dielectric_specular), t.metal, s.material.metallic);
-                    let fg = specular * dot(n, mirror) / ggx_d(alpha, 1.0);
+                    let fg = brdf_eval_specular(s.material, n, s.view, mirror) * dot(n, mirror) / peak_d;
                     push_sh_bin(&sh_bins, environment_direction(n), (c / total) * fg, cells,
                         s.material.roughness, &sh_light);
                 }

@@ -374,6 +374,7 @@ impl Technique for Glints {
         out.insert("output_bytes_per_pixel".into(), 16.0 + self.history_bytes as f64 / pixels);
         if let Some(tables) = &self.environment {
             out.insert("glints_env_table_bytes".into(), tables.shape.table_bytes() as f64);
+            out.insert("glints_env_basis_bytes".into(), tables.shape.basis_bytes() as f64);
             out.insert("glints_env_table_projections".into(), tables.projections as f64);
         }
         Ok(out)
