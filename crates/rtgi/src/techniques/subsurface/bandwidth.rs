@@ -6,7 +6,9 @@
 
 use std::f64::consts::PI;
 
-use crate::scene::subsurface::{Dipole, fresnel_dielectric};
+use glam::Vec3;
+
+use crate::scene::subsurface::{Dipole, DirectionalDipole, fresnel_dielectric, refract_into};
 
 /// Fraction of the spectrum's energy a bandwidth keeps.
 pub const ENERGY_FRACTION: f64 = 0.95;
@@ -93,6 +95,36 @@ pub fn spatial_bandwidth_with(dipole: &Dipole, samples: usize) -> f64 {
 
 pub fn spatial_bandwidth(dipole: &Dipole) -> f64 {
     spatial_bandwidth_with(dipole, 4096)
+}
+
+/// Angles of incidence (degrees) over which the directional dipole's bandwidth is maximised.
+pub const DIRECTIONAL_INCIDENCE: [f32; 4] = [0.0, 30.0, 60.0, 85.0];
+
+/// B_s of the directional dipole (the paper's rule for it): the largest over the channels and the
+/// angles of incidence in [`DIRECTIONAL_INCIDENCE`] of the bandwidth of the profile along the plane of
+/// incidence of a flat boundary, 4096 samples out to where it has fallen by e^{−12}.
+pub fn directional_spatial_bandwidth(dipole: &DirectionalDipole, eta: f32) -> f64 {
+    let samples = 4096;
+    let n = Vec3::Z;
+    let mut best: f64 = 0.0;
+    for degrees in DIRECTIONAL_INCIDENCE {
+        let (sin, cos) = degrees.to_radians().sin_cos();
+        let w12 = refract_into(Vec3::new(sin, 0.0, cos), n, eta);
+        for c in 0..3 {
+            let extent = f64::from(
+                12.0 / dipole.transport[c] + 4.0 * (dipole.virtual_offset[c] + dipole.extrapolation[c]),
+            );
+            let step = 2.0 * extent / samples as f64;
+            let values: Vec<f64> = (0..samples)
+                .map(|i| {
+                    let x = (-extent + (i as f64 + 0.5) * step) as f32;
+                    f64::from(dipole.eval(Vec3::ZERO, n, w12, Vec3::new(x, 0.0, 0.0), n)[c])
+                })
+                .collect();
+            best = best.max(energy_bandwidth(&values, step));
+        }
+    }
+    best
 }
 
 /// B_θ(θ_o) (cycles per radian) at the centres of `ANGULAR_BINS` bins over [0, π/2): the bandwidth of

@@ -33,30 +33,59 @@ struct TreeNode {
     _pad: u32,
 }
 
-// A node's light this frame: Σ E_i A_i over its samples (W, rgb) and the irradiance-weighted mean of
-// their positions (the area-weighted one where no light arrives).
+// A sample's light this frame: its irradiance E (rgb; with the entry Fresnel transmittance T₁₂ folded
+// in for the directional dipole) and the sum of its light's refracted directions ω₁₂, each weighted by
+// the luminance it brings.
+struct SampleLight {
+    irradiance: vec3f,
+    _pad0: f32,
+    direction: vec3f,
+    _pad1: f32,
+}
+
+// A node's light this frame: Σ E_i A_i over its samples (W, rgb), the irradiance-weighted mean of
+// their positions (the area-weighted one where no light arrives), and the luminance-weighted sums of
+// their light's refracted directions and of their normals (for the directional dipole; normalised
+// where used).
 struct NodeLight {
     power: vec3f,
     _pad0: f32,
     position: vec3f,
     _pad1: f32,
+    direction: vec3f,
+    _pad2: f32,
+    normal: vec3f,
+    _pad3: f32,
 }
 
-// The dipole of a material (all zero for opaque ones; whether a material is translucent, and its η,
-// are in the scene's material table). Per channel: σ_tr, real source depth z_r, virtual source height
-// z_v and the weights of the profile's flux and fluence terms.
+// The diffusion profile of a material (all zero for opaque ones; whether a material is translucent,
+// and its η, are in the scene's material table). For the radial dipoles (CPU twin
+// `scene::subsurface::Dipole`), per channel: σ_tr, real source depth z_r, virtual source height z_v
+// and the weights of the profile's flux and fluence terms. For the directional dipole (CPU twin
+// `scene::subsurface::DirectionalDipole`): σ_tr, D, the extrapolation distance d_e, the squared depth
+// of a source lit from behind, the virtual source's offset 2A d_e, and C_φ(η), C_E(η). `exit_scale`
+// turns the sum over samples into radiance before the exit Fresnel: 1/π for the radial dipoles,
+// 1/(4C_φ(1/η)) for the directional one.
 struct Medium {
     transport: vec3f,
-    _pad0: f32,
+    exit_scale: f32,
     z_r: vec3f,
     // B_s: the multiply-scattered light's spatial bandwidth (cycles per metre).
     spatial_bandwidth: f32,
     z_v: vec3f,
-    _pad1: f32,
+    c_phi: f32,
     k_e: vec3f,
-    _pad2: f32,
+    c_e: f32,
     k_phi: vec3f,
+    _pad0: f32,
+    diffusion: vec3f,
+    _pad1: f32,
+    extrapolation: vec3f,
+    _pad2: f32,
+    backlit_depth2: vec3f,
     _pad3: f32,
+    virtual_offset: vec3f,
+    _pad4: f32,
 }
 
 // A cluster of pixels of one translucent mesh (a square of 1, 2², 4² or 8² pixels of one tile) that
@@ -65,10 +94,13 @@ struct Medium {
 struct ClusterJob {
     center: vec3f,
     radius: f32,
+    // The mean of the pixels' normals (normalised), for the directional dipole.
+    normal: vec3f,
     mesh: u32,
     material: u32,
     pixels: u32,
-    _pad: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 const NO_NODE: u32 = 0xffffffffu;
@@ -82,8 +114,7 @@ const COUNTER_PIXELS: u32 = 3u;
 const COUNTER_TRUNCATED: u32 = 4u;
 
 @group(2) @binding(0) var<storage, read_write> samples: array<IlluminationSample>;
-// Per sample: irradiance E (rgb) this frame.
-@group(2) @binding(1) var<storage, read_write> sample_irradiance: array<vec4f>;
+@group(2) @binding(1) var<storage, read_write> sample_light: array<SampleLight>;
 @group(2) @binding(2) var<storage, read_write> nodes: array<TreeNode>;
 @group(2) @binding(3) var<storage, read_write> node_light: array<NodeLight>;
 // Per mesh: the root node of its illumination tree, or NO_NODE.
@@ -93,7 +124,7 @@ const COUNTER_TRUNCATED: u32 = 4u;
 // Per material, ANGULAR_BINS values of B_θ(θ_o) (cycles per radian).
 @group(2) @binding(6) var<storage, read_write> angular_bandwidth: array<f32>;
 @group(2) @binding(7) var<storage, read_write> jobs: array<ClusterJob>;
-// Per job: Σ R_d(r) E A over the tree's cut (rgb).
+// Per job: Σ S E A over the tree's cut (rgb), S the profile R_d(r) or the directional dipole.
 @group(2) @binding(8) var<storage, read_write> job_light: array<vec4f>;
 // Per pixel: its cluster's job, or NO_JOB for pixels that are not translucent.
 @group(2) @binding(9) var<storage, read_write> pixel_job: array<u32>;
@@ -113,4 +144,49 @@ fn dipole_profile(m: Medium, r: f32) -> vec3f {
     let real = m.z_r * (m.transport * d_r + 1.0) * fall_r / (d_r * d_r * d_r);
     let virt = m.z_v * (m.transport * d_v + 1.0) * fall_v / (d_v * d_v * d_v);
     return m.k_e * (real + virt) + m.k_phi * (fall_r / d_r - fall_v / d_v);
+}
+
+// Frisvad et al. 2014's directional dipole before its exit normalisation (`exit_scale`, applied in
+// shading) and without the Fresnel transmittances: light entering at x_i (normal n_i) along the
+// refracted direction w12 and leaving at x_o (normal n_o), clamped at zero (CPU twin
+// `scene::subsurface::DirectionalDipole::eval`).
+fn directional_dipole(m: Medium, x_i: vec3f, n_i: vec3f, w12: vec3f, x_o: vec3f, n_o: vec3f) -> vec3f {
+    let x = x_o - x_i;
+    let r2 = dot(x, x);
+    // The modified tangent plane's normal: n_i turned about x until perpendicular to it.
+    let side = cross(n_i, x);
+    var n_star = n_i;
+    if dot(side, side) > 1e-12 * max(r2, 1e-30) {
+        n_star = cross(normalize(x), normalize(side));
+    }
+    let w_v = w12 - 2.0 * dot(w12, n_star) * n_star;
+    let x_w = dot(x, w12);
+    let cos_beta = -sqrt(max(r2 - x_w * x_w, 0.0) / (r2 + m.extrapolation * m.extrapolation));
+    let mu0 = -dot(w12, n_o);
+    var depth2 = m.backlit_depth2;
+    if mu0 > 0.0 {
+        depth2 = m.diffusion * mu0 * (m.diffusion * mu0 - 2.0 * m.extrapolation * cos_beta);
+    }
+    let real = ray_source(m, x, w12, sqrt(r2 + depth2), n_o);
+    var virt: vec3f;
+    for (var c = 0u; c < 3u; c++) {
+        let x_v = x - m.virtual_offset[c] * n_star;
+        virt[c] = ray_source(m, x_v, w_v, vec3f(length(x_v)), n_o)[c];
+    }
+    return max(real - virt, vec3f(0.0));
+}
+
+// S'_d(x, ω, r) of Frisvad et al.'s Eq. 17: one ray source's share, x from its entry point to the
+// exit point, r the distance to the source.
+fn ray_source(m: Medium, x: vec3f, w: vec3f, r: vec3f, n_o: vec3f) -> vec3f {
+    let x_w = dot(x, w);
+    let w_n = dot(w, n_o);
+    let x_n = dot(x, n_o);
+    let tr_r = m.transport * r;
+    let r2 = r * r;
+    let fall = exp(-tr_r) / (4.0 * PI * PI * r2 * r);
+    let flux = r2 / m.diffusion + 3.0 * (1.0 + tr_r) * x_w;
+    let fluence = 3.0 * m.diffusion * (1.0 + tr_r) * w_n
+        - (1.0 + tr_r + 3.0 * m.diffusion * (3.0 * (1.0 + tr_r) + tr_r * tr_r) / r2 * x_w) * x_n;
+    return fall * (m.c_phi * flux - m.c_e * fluence);
 }

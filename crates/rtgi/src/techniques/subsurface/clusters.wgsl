@@ -21,6 +21,7 @@ var<workgroup> halo_normal: array<vec3f, 100>;
 var<workgroup> tile_key: array<u32, 64>;
 var<workgroup> tile_rate: array<f32, 64>;
 var<workgroup> tile_position: array<vec3f, 64>;
+var<workgroup> tile_normal: array<vec3f, 64>;
 var<workgroup> tile_job: array<u32, 64>;
 // Per square of side 2, 4 and 8 of the tile: the mesh key all its pixels share (0 if they differ or
 // are not translucent) and their largest s_p.
@@ -111,6 +112,7 @@ fn main(
     var key = 0u;
     var rate = 0.0;
     var position = vec3f(0.0);
+    var normal = vec3f(0.0);
     var material = 0u;
     if inside {
         let s = load_gsurface(id.xy);
@@ -122,12 +124,14 @@ fn main(
                 rate = sampling_rate(local.xy, s, key);
             }
             position = s.position;
+            normal = s.normal;
             atomicAdd(&counters[COUNTER_PIXELS], 1u);
         }
     }
     tile_key[me] = key;
     tile_rate[me] = rate;
     tile_position[me] = position;
+    tile_normal[me] = normal;
     workgroupBarrier();
 
     // The squares' shared keys and largest rates, bottom-up: 16 of side 2 (indices 0..15), 4 of side 4
@@ -177,9 +181,11 @@ fn main(
     let origin = (local.xy / side) * side;
     if key != 0u && all(local.xy == origin) {
         var sum = vec3f(0.0);
+        var normals = vec3f(0.0);
         for (var y = 0u; y < side; y++) {
             for (var x = 0u; x < side; x++) {
                 sum += tile_position[(origin.y + y) * SIDE + origin.x + x];
+                normals += tile_normal[(origin.y + y) * SIDE + origin.x + x];
             }
         }
         let center = sum / f32(side * side);
@@ -190,7 +196,10 @@ fn main(
             }
         }
         let job = atomicAdd(&counters[COUNTER_JOBS], 1u);
-        jobs[job] = ClusterJob(center, radius, key - 1u, material, side * side, 0u);
+        // (Opposite normals cancel only where a thin sheet shows both faces in one square.)
+        let first = tile_normal[origin.y * SIDE + origin.x];
+        let mean_normal = select(first, normalize(normals), dot(normals, normals) > 1e-6);
+        jobs[job] = ClusterJob(center, radius, mean_normal, key - 1u, material, side * side, 0u, 0u);
         tile_job[me] = job;
     }
     workgroupBarrier();

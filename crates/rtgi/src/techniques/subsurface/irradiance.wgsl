@@ -1,9 +1,26 @@
 // Irradiance of every illumination sample from the analytic lights, emissive triangles and the
-// environment, with shadow rays through the BVH: the direct-light routine of camera pixels applied to
-// a white Lambertian surface (which reflects E/π).
+// environment, with shadow rays through the BVH: the light samples of the direct-light routine for
+// camera pixels, taken one by one so that each can be weighted by where it enters (the directional
+// dipole needs the refracted direction of the light and, as part of its definition, the entry
+// Fresnel transmittance T₁₂; the radial dipoles take plain irradiance, as Jensen & Buhler).
 
 #import common/direct_light.wgsl
+#import common/color.wgsl
 #import common/indirect.wgsl
+
+// Adds one light sample: `sample` is what a white Lambertian reflects of it (E cos θ / π per unit
+// weight), `weight` its share after visibility.
+fn add_incident(sum: ptr<function, SampleLight>, n: vec3f, eta: f32, sample: UnshadowedSample, weight: f32) {
+    if weight <= 0.0 || all(sample.value == vec3f(0.0)) {
+        return;
+    }
+    var e = PI * sample.value * weight;
+    if DIRECTIONAL {
+        e *= 1.0 - fresnel_dielectric(eta, dot(n, sample.direction));
+    }
+    (*sum).irradiance += e;
+    (*sum).direction += luminance(e) * refract(-sample.direction, n, 1.0 / eta);
+}
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
@@ -12,6 +29,7 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
         return;
     }
     let sample = samples[i];
+    let eta = materials[vertex_material(triangle_vertices(sample.triangle)[0])].medium_eta;
     var s: GSurface;
     s.valid = true;
     s.position = sample.position;
@@ -21,7 +39,30 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     s.distance = 1.0;
     s.material_index = 0u;
     s.material = SurfaceMaterial(vec3f(1.0), 1.0, 0.0, 1.0, 0.0, vec3f(0.0));
+    let origin = gsurface_ray_origin(s);
     var rng = rng_new(vec2u(i & 0xffffu, 0x10000u | (i >> 16u)), frame.frame_counter, frame.seed);
-    let reflected = direct_light(s, gsurface_ray_origin(s), &rng, AREA_SAMPLES, ENV_SAMPLES, true);
-    sample_irradiance[i] = vec4f(PI * reflected, 0.0);
+    var light: SampleLight;
+    for (var l = 0u; l < scene_info.light_count; l++) {
+        let unshadowed = analytic_light_unshadowed(s, lights[l]);
+        if any(unshadowed.value != vec3f(0.0)) {
+            add_incident(&light, s.normal, eta, unshadowed, analytic_visibility(lights[l], s, unshadowed, origin, true));
+        }
+    }
+    if scene_info.emissive_count > 0u && AREA_SAMPLES > 0u {
+        for (var k = 0u; k < AREA_SAMPLES; k++) {
+            let unshadowed = emissive_sample_unshadowed(s, origin, vec3f(rng_next(&rng), rng_next2(&rng)));
+            if any(unshadowed.value != vec3f(0.0)) {
+                add_incident(&light, s.normal, eta, unshadowed, sample_visibility(unshadowed, origin) / f32(AREA_SAMPLES));
+            }
+        }
+    }
+    if scene_info.env_kind != ENV_NONE && ENV_SAMPLES > 0u {
+        for (var k = 0u; k < ENV_SAMPLES; k++) {
+            let unshadowed = environment_sample_unshadowed(s, rng_next2(&rng));
+            if any(unshadowed.value != vec3f(0.0)) {
+                add_incident(&light, s.normal, eta, unshadowed, sample_visibility(unshadowed, origin) / f32(ENV_SAMPLES));
+            }
+        }
+    }
+    sample_light[i] = light;
 }

@@ -18,9 +18,13 @@
 //! 5. **shade**: direct light, with a translucent material's Lambertian part replaced by
 //!    F_t(η, θ_o)/π · Σ R_d E A.
 //!
-//! What is and is not modelled: only the multiple-scattering term of the BSSRDF (as the paper); the
-//! standard dipole (not d'Eon's better dipole nor Frisvad's directional dipole); irradiance without the
-//! entry Fresnel transmittance, as Jensen & Buhler; direct light only (no indirect bounce lights the
+//! What is and is not modelled: only the multiple-scattering term of the BSSRDF (as the paper); three
+//! profiles, the three the paper demonstrates: Jensen et al.'s standard dipole, d'Eon's better dipole
+//! and Frisvad et al.'s directional dipole (which takes each node's luminance-weighted mean refracted
+//! light direction and normal, exact for one light and one sample, an approximation where several
+//! lights or a coarse node mix directions); irradiance without the entry Fresnel transmittance for the
+//! radial dipoles, as Jensen & Buhler, with it for the directional one, whose definition includes it;
+//! direct light only (no indirect bounce lights the
 //! samples); samples placed by systematic area sampling with R2 barycentrics rather than Bowers et al.'s
 //! parallel Poisson disks; the thesis's pixel kd-tree replaced by each tile's quadtree, which the GPU
 //! walks without a build; curvature from G-buffer neighbours rather than Kalogerakis et al.'s estimator.
@@ -67,9 +71,9 @@ pub const PARAMS: [ParamSpec; 12] = with_direct_params![
     },
     ParamSpec {
         name: "dipole",
-        kind: ParamKind::Choice(&["classical", "better"]),
+        kind: ParamKind::Choice(&["classical", "better", "directional"]),
         default: "classical",
-        doc: "diffusion profile: Jensen et al. 2001's dipole or d'Eon 2012's better dipole (fluence term, corrected diffusion coefficient)",
+        doc: "diffusion profile: Jensen et al. 2001's dipole, d'Eon 2012's better dipole (fluence term, corrected diffusion coefficient) or Frisvad et al. 2014's directional dipole (a ray source along the refracted light, with the entry Fresnel term)",
     },
     ParamSpec {
         name: "rho",
@@ -90,27 +94,57 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     create,
 };
 
-/// Per material: its dipole (WGSL `Medium`), zero for opaque materials.
+/// The diffusion profile the technique integrates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Profile {
+    /// A profile of distance alone, R_d(r).
+    Radial(DipoleModel),
+    /// Frisvad et al.'s directional dipole.
+    Directional,
+}
+
+impl Profile {
+    fn from_choice(choice: &str) -> Self {
+        match choice {
+            "better" => Profile::Radial(DipoleModel::Better),
+            "directional" => Profile::Directional,
+            _ => Profile::Radial(DipoleModel::Classical),
+        }
+    }
+}
+
+/// Per material: its profile (WGSL `Medium`), zero for opaque materials.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMedium {
     pub transport: [f32; 3],
-    pub _pad0: f32,
+    pub exit_scale: f32,
     pub z_r: [f32; 3],
     pub spatial_bandwidth: f32,
     pub z_v: [f32; 3],
-    pub _pad1: f32,
-    /// The profile's weights of its flux and fluence terms (`scene::subsurface::Dipole`).
+    pub c_phi: f32,
+    /// The radial profile's weights of its flux and fluence terms (`scene::subsurface::Dipole`).
     pub k_e: [f32; 3],
-    pub _pad2: f32,
+    pub c_e: f32,
     pub k_phi: [f32; 3],
+    pub _pad0: f32,
+    /// The directional dipole's (`scene::subsurface::DirectionalDipole`).
+    pub diffusion: [f32; 3],
+    pub _pad1: f32,
+    pub extrapolation: [f32; 3],
+    pub _pad2: f32,
+    pub backlit_depth2: [f32; 3],
     pub _pad3: f32,
+    pub virtual_offset: [f32; 3],
+    pub _pad4: f32,
 }
 
 /// WGSL `ClusterJob`.
-pub const CLUSTER_JOB_BYTES: u64 = 32;
+pub const CLUSTER_JOB_BYTES: u64 = 48;
 /// WGSL `NodeLight`.
-pub const NODE_LIGHT_BYTES: u64 = 32;
+pub const NODE_LIGHT_BYTES: u64 = 64;
+/// WGSL `SampleLight`.
+pub const SAMPLE_LIGHT_BYTES: u64 = 32;
 /// The counters' slots (COUNTER_* in bindings.wgsl).
 pub const COUNTERS: [&str; 5] = [
     "subsurface_clusters",
@@ -125,22 +159,43 @@ pub const COUNTERS: [&str; 5] = [
 const BINDINGS: &str = include_str!("bindings.wgsl");
 const WORKGROUP: u32 = 64;
 
-/// The dipole and bandwidths of every material (opaque ones zero).
-pub fn media(scene: &Scene, model: DipoleModel) -> (Vec<GpuMedium>, Vec<f32>) {
+/// The profile and bandwidths of every material (opaque ones zero).
+pub fn media(scene: &Scene, profile: Profile) -> (Vec<GpuMedium>, Vec<f32>) {
     let mut media = Vec::new();
     let mut angular = Vec::new();
     for material in &scene.materials {
         match material.subsurface {
             Some(m) => {
-                let dipole = m.dipole(model);
-                media.push(GpuMedium {
-                    transport: dipole.transport.to_array(),
-                    z_r: dipole.z_r.to_array(),
-                    spatial_bandwidth: bandwidth::spatial_bandwidth(&dipole) as f32,
-                    z_v: dipole.z_v.to_array(),
-                    k_e: dipole.k_e.to_array(),
-                    k_phi: dipole.k_phi.to_array(),
-                    ..Default::default()
+                media.push(match profile {
+                    Profile::Radial(model) => {
+                        let dipole = m.dipole(model);
+                        GpuMedium {
+                            transport: dipole.transport.to_array(),
+                            exit_scale: std::f32::consts::FRAC_1_PI,
+                            z_r: dipole.z_r.to_array(),
+                            spatial_bandwidth: bandwidth::spatial_bandwidth(&dipole) as f32,
+                            z_v: dipole.z_v.to_array(),
+                            k_e: dipole.k_e.to_array(),
+                            k_phi: dipole.k_phi.to_array(),
+                            ..Default::default()
+                        }
+                    }
+                    Profile::Directional => {
+                        let dipole = m.directional_dipole();
+                        GpuMedium {
+                            transport: dipole.transport.to_array(),
+                            exit_scale: dipole.exit_scale,
+                            spatial_bandwidth: bandwidth::directional_spatial_bandwidth(&dipole, m.eta)
+                                as f32,
+                            c_phi: dipole.c_phi,
+                            c_e: dipole.c_e,
+                            diffusion: dipole.diffusion.to_array(),
+                            extrapolation: dipole.extrapolation.to_array(),
+                            backlit_depth2: dipole.backlit_depth2.to_array(),
+                            virtual_offset: dipole.virtual_offset.to_array(),
+                            ..Default::default()
+                        }
+                    }
                 });
                 angular.extend(bandwidth::angular_bandwidths(m.eta));
             }
@@ -212,11 +267,8 @@ impl Subsurface {
                 ));
             }
         }
-        let model = match setup.params.choice("dipole") {
-            "better" => DipoleModel::Better,
-            _ => DipoleModel::Classical,
-        };
-        let (media, angular) = media(setup.scene, model);
+        let profile = Profile::from_choice(setup.params.choice("dipole"));
+        let (media, angular) = media(setup.scene, profile);
         // Triangles within each mesh become triangles of the GPU scene.
         let samples: Vec<samples::IlluminationSample> = trees
             .samples
@@ -237,7 +289,7 @@ impl Subsurface {
         let zeroed = |label: &str, size: u64| BufferBuilder::new(label, size).storage().copy().build(ctx);
         let buffers = [
             storage("subsurface samples", bytemuck::cast_slice(&samples))?,
-            zeroed("subsurface sample irradiance", u64::from(sample_count) * 16)?,
+            zeroed("subsurface sample light", u64::from(sample_count) * SAMPLE_LIGHT_BYTES)?,
             storage("subsurface nodes", bytemuck::cast_slice(&trees.nodes))?,
             zeroed("subsurface node light", u64::from(node_count) * NODE_LIGHT_BYTES)?,
             storage("subsurface mesh roots", bytemuck::cast_slice(&trees.roots))?,
@@ -279,7 +331,8 @@ impl Subsurface {
             .u32("AREA_SAMPLES", params.int("area_samples") as u32)
             .u32("ENV_SAMPLES", params.int("env_samples") as u32)
             .f32("EPSILON", params.float("epsilon") as f32)
-            .f32("RHO", params.float("rho") as f32);
+            .f32("RHO", params.float("rho") as f32)
+            .bool("DIRECTIONAL", profile == Profile::Directional);
         let groups = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout];
         let pipeline = |name: &str, source: &str, groups: &[&wgpu::BindGroupLayout]| {
             compute::pipeline(ctx, name, &format!("{BINDINGS}\n{source}"), defines.clone(), "main", groups)

@@ -1,6 +1,7 @@
 // Shading: direct light as the `direct` pass computes it, except that a translucent material's
 // Lambertian part is replaced by its multiply-scattered light L = F_t(η, θ_o)/π · Σ R_d(r) E A (the
-// dipole BSSRDF of Jensen et al. 2001 with the irradiance of the samples, as Jensen & Buhler 2002);
+// dipole BSSRDF of Jensen et al. 2001 with the irradiance of the samples, as Jensen & Buhler 2002),
+// or F_t(η, θ_o)/(4C_φ(1/η)) · Σ S_d E A for the directional dipole (`exit_scale`);
 // its specular layer stays. Progressive: the stochastic light samples average over frames.
 
 #import common/direct_light.wgsl
@@ -22,7 +23,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if translucent && job != NO_JOB {
         let eta = materials[s.material_index].medium_eta;
         let transmitted = 1.0 - fresnel_dielectric(eta, dot(s.normal, s.view));
-        radiance += transmitted * INV_PI * job_light[job].rgb;
+        radiance += transmitted * media[s.material_index].exit_scale * job_light[job].rgb;
     }
     radiance = accumulate_mean(textureLoad(output, id.xy).rgb, radiance, frame.sample_index);
     textureStore(output, id.xy, vec4f(radiance, 1.0));

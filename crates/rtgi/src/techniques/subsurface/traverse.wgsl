@@ -44,7 +44,13 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
         let d2 = dot(offset, offset);
         let far = node.area < EPSILON * d2 && !sphere_meets_box(job.center, job.radius, node.lo, node.hi);
         if node.count == 1u || far {
-            sum += dipole_profile(medium, sqrt(d2)) * light.power;
+            if DIRECTIONAL {
+                let w12 = normalize(light.direction);
+                let n_i = normalize(light.normal);
+                sum += directional_dipole(medium, light.position, n_i, w12, job.center, job.normal) * light.power;
+            } else {
+                sum += dipole_profile(medium, sqrt(d2)) * light.power;
+            }
             evaluations += 1u;
         } else {
             stack[top] = node.right;

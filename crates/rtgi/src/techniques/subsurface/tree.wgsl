@@ -1,6 +1,7 @@
 // One level of the illumination trees, bottom-up: a leaf takes its sample's E·A, an inner node sums
 // its children and places itself at their luminance-weighted mean position (the area-weighted one
-// when neither child is lit), as Jensen & Buhler's nodes; the bounds are refitted on the way, for
+// when neither child is lit), as Jensen & Buhler's nodes, and sums the luminance-weighted directions
+// and normals the directional dipole takes from it; the bounds are refitted on the way, for
 // samples that moved with their meshes.
 
 #import common/color.wgsl
@@ -21,8 +22,11 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     var light: NodeLight;
     if node.count == 1u {
         let s = samples[node.first];
-        light.power = sample_irradiance[node.first].rgb * s.area;
+        let sample = sample_light[node.first];
+        light.power = sample.irradiance * s.area;
         light.position = s.position;
+        light.direction = sample.direction * s.area;
+        light.normal = s.normal * luminance(light.power);
         nodes[n].lo = s.position;
         nodes[n].hi = s.position;
     } else {
@@ -36,6 +40,8 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             wb = nodes[node.right].area;
         }
         light.position = (wa * a.position + wb * b.position) / (wa + wb);
+        light.direction = a.direction + b.direction;
+        light.normal = a.normal + b.normal;
         nodes[n].lo = min(nodes[n + 1u].lo, nodes[node.right].lo);
         nodes[n].hi = max(nodes[n + 1u].hi, nodes[node.right].hi);
     }
