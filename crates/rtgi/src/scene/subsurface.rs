@@ -416,7 +416,7 @@ mod tests {
 
     /// The directional dipole's signatures (Frisvad et al. 2014): light arriving obliquely exits
     /// further along its refracted direction than behind it (here at 60°, one and three diffusion
-    /// lengths away: measured 3.4× and 3.5× for skin1's green; bound 1.3×), and at normal incidence it is
+    /// lengths away: measured 3.4× and 3.5× for skin1's green; bound 2×), and at normal incidence it is
     /// rotationally symmetric. Far from the entry it falls off nearly as the better dipole with the
     /// same D and boundary (their ratio at 4 and at 8 diffusion lengths differs by 5.0 %: the virtual
     /// sources sit at different heights; bound 10 %), while near the entry (0.1 diffusion length) the
@@ -433,7 +433,7 @@ mod tests {
         for r in [length, 3.0 * length] {
             let (ahead, behind) = (along(oblique, r), along(oblique, -r));
             eprintln!("at {r}: ahead {ahead}, behind {behind}, {}×", ahead / behind);
-            assert!(ahead > 1.3 * behind, "at {r}: ahead {ahead}, behind {behind}");
+            assert!(ahead > 2.0 * behind, "at {r}: ahead {ahead}, behind {behind}");
         }
         let normal = refract_into(n, n, m.eta);
         let sideways = d.eval(Vec3::ZERO, n, normal, Vec3::new(0.0, length, 0.0), n).y;
