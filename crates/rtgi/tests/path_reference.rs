@@ -217,28 +217,6 @@ fn non_absorbing_translucent_sphere_is_a_white_furnace() {
     );
 }
 
-/// Chandrasekhar's H function of isotropic scattering with single-scattering albedo `omega` < 1 at μ,
-/// from 1/H(μ) = √(1−ω) + (ω/2) ∫₀¹ μ' H(μ') / (μ + μ') dμ' iterated to convergence (midpoint rule),
-/// and its zeroth moment ∫₀¹ H dμ.
-fn chandrasekhar_h(omega: f64, mu: f64) -> (f64, f64) {
-    const N: usize = 500;
-    let nodes: Vec<f64> = (0..N).map(|i| (i as f64 + 0.5) / N as f64).collect();
-    let mut h = vec![1.0; N];
-    let rhs = |h: &[f64], mu: f64| {
-        let integral: f64 = nodes.iter().zip(h).map(|(m, hm)| m * hm / (mu + m)).sum::<f64>() / N as f64;
-        1.0 / ((1.0 - omega).sqrt() + omega / 2.0 * integral)
-    };
-    for _ in 0..5000 {
-        let next: Vec<f64> = nodes.iter().map(|&m| rhs(&h, m)).collect();
-        let change = next.iter().zip(&h).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        h = next;
-        if change < 1e-12 {
-            break;
-        }
-    }
-    (rhs(&h, mu), h.iter().sum::<f64>() / N as f64)
-}
-
 /// The random walk against an exact solution of radiative transfer: a semi-infinite medium of
 /// isotropic scattering behind an index-matched boundary, lit by a uniform environment of radiance 1,
 /// reflects I(μ) = 1 − √(1−ω) H(μ) towards μ (Chandrasekhar 1950). A box 10⁴ mean free paths wide
@@ -277,7 +255,7 @@ fn random_walk_reflects_chandrasekhars_semi_infinite_albedo() {
     let out = render_scene(&ctx, &scene, 32, 256, &[]);
     assert_eq!(out.stats.counters["truncated_walks"], 0.0);
     for (c, w) in omega.iter().enumerate() {
-        let (h1, moment) = chandrasekhar_h(*w, 1.0);
+        let (h1, moment) = rtgi::scene::subsurface::chandrasekhar_h(*w, 1.0);
         // The solver against the closed form ∫₀¹ H dμ = (2/ω)(1 − √(1−ω)).
         let exact_moment = 2.0 / w * (1.0 - (1.0 - w).sqrt());
         assert!((moment / exact_moment - 1.0).abs() < 1e-4, "ω = {w}: ∫H = {moment}, exactly {exact_moment}");
