@@ -334,7 +334,6 @@ fn compare(reference: &Path, test: &Path, json: bool, images: &ImageOptions) -> 
         )),
         None => None,
     };
-    let lum = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
     if json {
         let mut v = serde_json::to_value(m)?;
         if let (Some((rm, tm)), Some(obj)) = (means, v.as_object_mut()) {
@@ -343,8 +342,8 @@ fn compare(reference: &Path, test: &Path, json: bool, images: &ImageOptions) -> 
                 serde_json::json!({
                     "reference_mean": rm,
                     "test_mean": tm,
-                    "reference_luminance": lum(rm),
-                    "test_luminance": lum(tm),
+                    "reference_luminance": rtgi::metrics::luminance(rm),
+                    "test_luminance": rtgi::metrics::luminance(tm),
                 }),
             );
         }
@@ -354,9 +353,9 @@ fn compare(reference: &Path, test: &Path, json: bool, images: &ImageOptions) -> 
         if let Some((rm, tm)) = means {
             println!(
                 "region mean luminance: reference {:.6}, test {:.6} (ratio {:.3})",
-                lum(rm),
-                lum(tm),
-                lum(tm) / lum(rm)
+                rtgi::metrics::luminance(rm),
+                rtgi::metrics::luminance(tm),
+                rtgi::metrics::luminance(tm) / rtgi::metrics::luminance(rm)
             );
         }
     }

@@ -95,6 +95,11 @@ fn check(reference: &HdrImage, test: &HdrImage) -> Result<(), MetricsError> {
     check_all_finite(&[(reference, "reference"), (test, "test")])
 }
 
+/// Luminance (Rec. 709 weights) of linear RGB.
+pub fn luminance(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
 /// Mean linear radiance (RGB) of the pixels in the rectangle at (x, y) of size w×h.
 pub fn region_mean(image: &HdrImage, x: u32, y: u32, w: u32, h: u32) -> Result<[f64; 3], MetricsError> {
     if w == 0 || h == 0 || x.saturating_add(w) > image.width || y.saturating_add(h) > image.height {
