@@ -194,6 +194,28 @@ mod tests {
         }
     }
 
+    /// The directional dipole's B_s also grows with σ_tr, and exceeds the radial dipole's of the same
+    /// medium: its ray source sits nearer the surface, so its profile is sharper (measured 4.5–7.4×
+    /// the classical dipole's over these media; bound: above it).
+    #[test]
+    fn directional_bandwidth_grows_with_transport() {
+        let medium = |sigma_a: f32| Subsurface {
+            absorption: glam::Vec3::splat(sigma_a),
+            reduced_scattering: glam::Vec3::splat(20.0),
+            eta: 1.3,
+        };
+        let mut last = 0.0;
+        for sigma_a in [0.05, 0.5, 2.0, 8.0, 20.0] {
+            let m = medium(sigma_a);
+            let b = directional_spatial_bandwidth(&m.directional_dipole(), m.eta);
+            let radial = spatial_bandwidth(&m.dipole(DipoleModel::Classical));
+            eprintln!("σ_a {sigma_a}: directional B_s {b}, classical {radial}, {:.2}×", b / radial);
+            assert!(b.is_finite() && b > last, "σ_a {sigma_a}: B_s {b} not above {last}");
+            assert!(b > radial, "σ_a {sigma_a}: directional {b} against classical {radial}");
+            last = b;
+        }
+    }
+
     /// B_θ rises towards grazing, where the transmittance falls to zero.
     #[test]
     fn angular_bandwidth_rises_at_grazing() {
