@@ -24,8 +24,8 @@
 //! light direction and normal, exact for one light and one sample, an approximation where several
 //! lights or a coarse node mix directions); irradiance without the entry Fresnel transmittance for the
 //! radial dipoles, as Jensen & Buhler, with it for the directional one, whose definition includes it;
-//! direct light only (no indirect bounce lights the
-//! samples); samples placed by systematic area sampling with R2 barycentrics rather than Bowers et al.'s
+//! direct light only (no indirect bounce lights the samples); blue-noise samples by Yuksel's weighted
+//! sample elimination of four times as many area-sampled candidates rather than Bowers et al.'s
 //! parallel Poisson disks; the thesis's pixel kd-tree replaced by each tile's quadtree, which the GPU
 //! walks without a build; curvature from G-buffer neighbours rather than Kalogerakis et al.'s estimator.
 //! The path tracer and every other technique see a translucent material as the Lambertian of its total
