@@ -12,7 +12,8 @@ its samples (ε = 0, ρ = 0: the dipole alone, without the hierarchy's error), t
 (`dipole=better`) and with Frisvad et al.'s directional dipole (`dipole=directional`, also at the default ε and ρ),
 and `path` with
 `subsurface=lambertian max_bounces=0` (what every technique without subsurface transport shows: the Lambertian
-of the medium's total diffuse reflectance). The reference's own noise is measured from two independent renders
+of the medium's total diffuse reflectance). Then one bounce of indirect light: `subsurface indirect_samples=4`
+against the walk with `max_bounces=1`, on the translucent patches. The reference's own noise is measured from two independent renders
 of a quarter of its samples. Reports FLIP and relative MSE over the image, and the mean radiance of a patch of
 the slab's unlit front (light shining through 12 cm of marble) and of the sphere.
 Options: --size WxH, --spp N (the reference's samples per pixel), --doc NAME, --allow-dirty.
@@ -48,10 +49,10 @@ def main():
                "--frames", frames, *sets, "--out", out, "--stats", stats_path])
         return out, json.loads(stats_path.read_text())
 
-    def walk(name, spp, seed, subsurface="walk"):
+    def walk(name, spp, seed, subsurface="walk", bounces=0):
         per_frame = min(spp, SPP_PER_FRAME)
-        return render(name, "path", {"subsurface": subsurface, "max_bounces": 0, "spp": per_frame, "seed": seed},
-                      frames=spp // per_frame)
+        return render(name, "path", {"subsurface": subsurface, "max_bounces": bounces, "spp": per_frame,
+                                     "seed": seed}, frames=spp // per_frame)
 
     reference, ref_stats = walk("reference", args.spp, 0)
     quarter = max(args.spp // 4, 1)
@@ -81,6 +82,21 @@ def main():
         patches = {p: m.compare(rtgi, reference, out, region=region(p))["region"] for p in PATCHES}
         rows.append((label, error, patches, stats))
 
+    # One bounce of indirect light: the walk with max_bounces=1 against the samples lit by direct light
+    # only and with indirect_samples rays each (their noise averaged over frames). Only the translucent
+    # patches compare: `subsurface` lights the opaque surfaces with direct light alone.
+    bounce, _ = walk("reference-bounce", args.spp, 0, bounces=1)
+    indirect_frames = 16
+    indirect_candidates = [
+        ("`subsurface` ε 0, ρ 0 (direct light on the samples)", candidates[1][1]),
+        (f"`subsurface indirect_samples=4` ε 0, ρ 0, {indirect_frames} frames",
+         render("indirect-exact", "subsurface", {"indirect_samples": 4, "epsilon": 0, "rho": 0},
+                frames=indirect_frames)[0]),
+        (f"`subsurface indirect_samples=4`, {indirect_frames} frames (defaults otherwise)",
+         render("indirect", "subsurface", {"indirect_samples": 4}, frames=indirect_frames)[0]),
+    ]
+    indirect_rows = [(label, {p: m.compare(rtgi, bounce, out, region=region(p))["region"] for p in PATCHES})
+                     for label, out in indirect_candidates]
     end_load = m.load_average()
     adapter = ref_stats["adapter"]
     cpu = adapter.get("device_type") == "Cpu"
@@ -122,6 +138,16 @@ def main():
               f"{directional['flip']:.4f}, relMSE {directional['rel_mse']:.5f}, "
               f"{share(directional_patches, 'slab front')} on the slab's front and "
               f"{share(directional_patches, 'sphere')} on the sphere."]
+    lines += ["", "## One bounce of indirect light", "",
+              f"Against `path subsurface=walk max_bounces=1` at {args.spp} samples per pixel (direct light and one "
+              "bounce, off the floor, the wall and the other object, into each medium), in the translucent "
+              "patches only (`subsurface` lights opaque surfaces with direct light alone). Mean linear luminance "
+              "as a share of the walk's:", "",
+              "| against the walk with one bounce | " + " | ".join(f"{p} (truth)" for p in PATCHES) + " |",
+              "|---|" + "---:|" * len(PATCHES)]
+    for label, patches in indirect_rows:
+        cells = [f"{share(patches, p)} ({patches[p]['reference_luminance']:.4f})" for p in PATCHES]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
     m.write_doc(SCRIPT, args.doc, lines)
 
 

@@ -1,5 +1,5 @@
 // Irradiance of every illumination sample from the analytic lights, emissive triangles and the
-// environment, with shadow rays through the BVH: the light samples of the direct-light routine for
+// environment, with shadow rays through the BVH, and (INDIRECT_SAMPLES > 0) one bounce of indirect light: the light samples of the direct-light routine for
 // camera pixels, taken one by one so that each can be weighted by where it enters (the directional
 // dipole needs the refracted direction of the light and, as part of its definition, the entry
 // Fresnel transmittance T₁₂; the radial dipoles take plain irradiance, as Jensen & Buhler).
@@ -63,6 +63,20 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
                 add_incident(&light, s.normal, eta, unshadowed, sample_visibility(unshadowed, origin) / f32(ENV_SAMPLES));
             }
         }
+    }
+    // One bounce of indirect light: cosine-weighted rays, each bringing the direct light reflected by
+    // what it meets (E ≈ π × their mean radiance). Emitters and the environment are the light samples'
+    // above, so a ray that meets them adds nothing.
+    for (var k = 0u; k < INDIRECT_SAMPLES; k++) {
+        let dir = local_to_world(sample_cosine_hemisphere(rng_next2(&rng)), s.normal);
+        let hit = trace_closest(Ray(origin, dir), 0.0, FLT_MAX);
+        if hit.t == FLT_MAX {
+            continue;
+        }
+        let h = hit_gsurface(surface_at(hit.triangle, hit.u, hit.v, dir), -dir, hit.t);
+        let reflected =
+            direct_light(h, offset_origin(h.position, h.geometric_normal), &rng, AREA_SAMPLES, ENV_SAMPLES, true);
+        add_incident(&light, s.normal, eta, UnshadowedSample(reflected, dir, hit.t), 1.0 / max(f32(INDIRECT_SAMPLES), 1.0));
     }
     sample_light[i] = light;
 }

@@ -24,7 +24,7 @@
 //! light direction and normal, exact for one light and one sample, an approximation where several
 //! lights or a coarse node mix directions); irradiance without the entry Fresnel transmittance for the
 //! radial dipoles, as Jensen & Buhler, with it for the directional one, whose definition includes it;
-//! direct light only (no indirect bounce lights the samples); blue-noise samples by Yuksel's weighted
+//! direct light on the samples unless `indirect_samples` adds one bounce of indirect light; blue-noise samples by Yuksel's weighted
 //! sample elimination of four times as many area-sampled candidates rather than Bowers et al.'s
 //! parallel Poisson disks; the thesis's pixel kd-tree replaced by each tile's quadtree, which the GPU
 //! walks without a build; curvature from G-buffer neighbours rather than Kalogerakis et al.'s estimator.
@@ -56,7 +56,7 @@ use super::{
 use bandwidth::ANGULAR_BINS;
 use samples::{IlluminationTrees, MAX_DEPTH};
 
-pub const PARAMS: [ParamSpec; 12] = with_direct_params![
+pub const PARAMS: [ParamSpec; 13] = with_direct_params![
     ParamSpec {
         name: "samples",
         kind: ParamKind::Int { min: 16, max: 1 << 20 },
@@ -74,6 +74,12 @@ pub const PARAMS: [ParamSpec; 12] = with_direct_params![
         kind: ParamKind::Choice(&["classical", "better", "directional"]),
         default: "classical",
         doc: "diffusion profile: Jensen et al. 2001's dipole, d'Eon 2012's better dipole (fluence term, corrected diffusion coefficient) or Frisvad et al. 2014's directional dipole (a ray source along the refracted light, with the entry Fresnel term)",
+    },
+    ParamSpec {
+        name: "indirect_samples",
+        kind: ParamKind::Int { min: 0, max: 64 },
+        default: "0",
+        doc: "rays per illumination sample and frame that add one bounce of indirect light to the samples (0: direct light only, as Jensen & Buhler); the frames' average converges",
     },
     ParamSpec {
         name: "rho",
@@ -330,6 +336,7 @@ impl Subsurface {
             .bvh_defines(Defines::new())
             .u32("AREA_SAMPLES", params.int("area_samples") as u32)
             .u32("ENV_SAMPLES", params.int("env_samples") as u32)
+            .u32("INDIRECT_SAMPLES", params.int("indirect_samples") as u32)
             .f32("EPSILON", params.float("epsilon") as f32)
             .f32("RHO", params.float("rho") as f32)
             .bool("DIRECTIONAL", profile == Profile::Directional);

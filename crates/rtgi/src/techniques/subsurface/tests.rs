@@ -21,6 +21,7 @@ fn test_defines() -> Defines {
         .u32("TILE", 8)
         .u32("AREA_SAMPLES", 4)
         .u32("ENV_SAMPLES", 4)
+        .u32("INDIRECT_SAMPLES", 0)
         .f32("EPSILON", 0.1)
         .f32("RHO", 0.75)
         .bool("DIRECTIONAL", true)
