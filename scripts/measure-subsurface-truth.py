@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Prints docs/measurements/subsurface-truth-lavapipe.md: the dipole (`subsurface`) and the Lambertian stand-in against the path tracer's random walk.
 
-    cargo build --release -p rtgi-cli && python3 scripts/measure-subsurface-truth.py      # about 15 min on lavapipe
+    cargo build --release -p rtgi-cli && python3 scripts/measure-subsurface-truth.py      # about 12 min on lavapipe
     python3 scripts/measure-subsurface-truth.py --size 512x512 --spp 65536 --doc subsurface-truth-gpu   # a GPU
 
 On `translucent` (a skin sphere and a marble slab, lit from the front by a point light and from behind by a
