@@ -13,7 +13,8 @@ its samples (ε = 0, ρ = 0: the dipole alone, without the hierarchy's error), t
 and `path` with
 `subsurface=lambertian max_bounces=0` (what every technique without subsurface transport shows: the Lambertian
 of the medium's total diffuse reflectance). Then one bounce of indirect light: `subsurface indirect_samples=4`
-against the walk with `max_bounces=1`, on the translucent patches. The reference's own noise is measured from two independent renders
+against the walk with `max_bounces=1`, on the translucent patches. Last, equal time: the walk at the samples
+per pixel one frame of `subsurface` costs, and at 4, 16 and 64 times that. The reference's own noise is measured from two independent renders
 of a quarter of its samples. Reports FLIP and relative MSE over the image, and the mean radiance of a patch of
 the slab's unlit front (light shining through 12 cm of marble) and of the sphere.
 Options: --size WxH, --spp N (the reference's samples per pixel), --doc NAME, --allow-dirty.
@@ -52,7 +53,7 @@ def main():
     def walk(name, spp, seed, subsurface="walk", bounces=0):
         per_frame = min(spp, SPP_PER_FRAME)
         return render(name, "path", {"subsurface": subsurface, "max_bounces": bounces, "spp": per_frame,
-                                     "seed": seed}, frames=spp // per_frame)
+                                     "seed": seed}, frames=-(-spp // per_frame))
 
     reference, ref_stats = walk("reference", args.spp, 0)
     quarter = max(args.spp // 4, 1)
@@ -97,6 +98,18 @@ def main():
     ]
     indirect_rows = [(label, {p: m.compare(rtgi, bounce, out, region=region(p))["region"] for p in PATCHES})
                      for label, out in indirect_candidates]
+    # Equal time: the walk at the samples per pixel that one steady frame of `subsurface` (defaults)
+    # costs, and at 4, 16 and 64 times that, against the reference (whose own noise is in every row).
+    _, steady = render("dipole-steady", "subsurface", {}, frames=4)
+    subsurface_ms = steady["frame_gpu"]["mean_ms"]
+    walk_ms_per_spp = ref_stats["frame_gpu"]["mean_ms"] / SPP_PER_FRAME
+    equal_spp = max(1, round(subsurface_ms / walk_ms_per_spp))
+    equal_rows = []
+    for k in (1, 4, 16, 64):
+        spp = equal_spp * k
+        spp = spp if spp <= SPP_PER_FRAME else SPP_PER_FRAME * round(spp / SPP_PER_FRAME)
+        out, _ = walk(f"walk-{spp}spp", spp, 7)
+        equal_rows.append((k, spp, m.compare(rtgi, reference, out)))
     end_load = m.load_average()
     adapter = ref_stats["adapter"]
     cpu = adapter.get("device_type") == "Cpu"
@@ -148,6 +161,18 @@ def main():
     for label, patches in indirect_rows:
         cells = [f"{share(patches, p)} ({patches[p]['reference_luminance']:.4f})" for p in PATCHES]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    dipole_default = rows[0][1]
+    lines += ["", "## Equal time", "",
+              f"One steady frame of `subsurface` (defaults) costs {subsurface_ms:.1f} ms of GPU time here (mean "
+              f"of frames 2–4); one sample per pixel of the walk {walk_ms_per_spp:.1f} ms (the reference's "
+              f"frames), so at equal time the walk gets {equal_spp} samples per pixel. Errors against the "
+              "reference:", "",
+              "| estimator | GPU time | relMSE | FLIP |", "|---|---:|---:|---:|",
+              f"| `subsurface` (defaults), 1 frame | {subsurface_ms:.1f} ms | {dipole_default['rel_mse']:.5f} | "
+              f"{dipole_default['flip']:.4f} |"]
+    for k, spp, error in equal_rows:
+        lines.append(f"| walk, {spp} spp ({k}× the time) | {spp * walk_ms_per_spp:.1f} ms | "
+                     f"{error['rel_mse']:.5f} | {error['flip']:.4f} |")
     m.write_doc(SCRIPT, args.doc, lines)
 
 
