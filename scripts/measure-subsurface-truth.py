@@ -9,7 +9,7 @@ spot light), the ground truth is `path` with `subsurface=walk max_bounces=0`: di
 transport simulated (a random walk through each medium under its rough dielectric boundary), which is what
 `subsurface` approximates with the dipole. Against it: `subsurface` at its defaults and with the exact sum of
 its samples (ε = 0, ρ = 0: the dipole alone, without the hierarchy's error), the same with d'Eon's better dipole
-(`dipole=better`) and with Frisvad et al.'s directional dipole (`dipole=directional`, also at the default ε and ρ),
+(`dipole=better`), with the entry Fresnel term (`entry_fresnel=true`) and with Frisvad et al.'s directional dipole (`dipole=directional`, also at the default ε and ρ),
 and `path` with
 `subsurface=lambertian max_bounces=0` (what every technique without subsurface transport shows: the Lambertian
 of the medium's total diffuse reflectance). Then one bounce of indirect light: `subsurface indirect_samples=4`
@@ -67,6 +67,8 @@ def main():
         ("`path subsurface=lambertian` (the stand-in)", *walk("lambertian", min(args.spp, 1024), 3, "lambertian")),
         ("`subsurface dipole=better` ε 0, ρ 0 (d'Eon's better dipole, exact sum)",
          *render("better-exact", "subsurface", {"dipole": "better", "epsilon": 0, "rho": 0})),
+        ("`subsurface entry_fresnel=true` ε 0, ρ 0 (the dipole with the entry Fresnel term, exact sum)",
+         *render("entry-fresnel-exact", "subsurface", {"entry_fresnel": "true", "epsilon": 0, "rho": 0})),
         ("`subsurface dipole=directional` ε 0, ρ 0 (Frisvad et al.'s directional dipole, exact sum)",
          *render("directional-exact", "subsurface", {"dipole": "directional", "epsilon": 0, "rho": 0})),
         ("`subsurface dipole=directional` (defaults otherwise)", *render("directional", "subsurface",
@@ -135,7 +137,8 @@ def main():
         cells = [f"{patches[p]['test_luminance']:.4f} ({patches[p]['reference_luminance']:.4f})" for p in PATCHES]
         lines.append(f"| {label} | {error['rel_mse']:.5f} | {error['flip']:.4f} | " + " | ".join(cells) + " |")
     (_, dipole, dipole_patches, _), (_, lambertian, lambertian_patches, _) = rows[1], rows[2]
-    (_, better, better_patches, _), (_, directional, directional_patches, _) = rows[3], rows[4]
+    (_, better, better_patches, _), (_, entry, entry_patches, _) = rows[3], rows[4]
+    (_, directional, directional_patches, _) = rows[5]
 
     def share(patches, p):
         return f"{100 * patches[p]['test_luminance'] / patches[p]['reference_luminance']:.0f} %"
@@ -147,7 +150,9 @@ def main():
               f"{share(lambertian_patches, 'slab front')}; on the sphere {share(dipole_patches, 'sphere')} and "
               f"{share(lambertian_patches, 'sphere')}. The better dipole: FLIP {better['flip']:.4f}, relMSE "
               f"{better['rel_mse']:.5f}, {share(better_patches, 'slab front')} on the slab's front and "
-              f"{share(better_patches, 'sphere')} on the sphere. The directional dipole (exact sum): FLIP "
+              f"{share(better_patches, 'sphere')} on the sphere. The dipole with the entry Fresnel term: FLIP "
+              f"{entry['flip']:.4f}, relMSE {entry['rel_mse']:.5f}, {share(entry_patches, 'slab front')} on the "
+              f"slab's front and {share(entry_patches, 'sphere')} on the sphere. The directional dipole (exact sum): FLIP "
               f"{directional['flip']:.4f}, relMSE {directional['rel_mse']:.5f}, "
               f"{share(directional_patches, 'slab front')} on the slab's front and "
               f"{share(directional_patches, 'sphere')} on the sphere."]

@@ -2,7 +2,8 @@
 // environment, with shadow rays through the BVH, and (INDIRECT_SAMPLES > 0) one bounce of indirect light: the light samples of the direct-light routine for
 // camera pixels, taken one by one so that each can be weighted by where it enters (the directional
 // dipole needs the refracted direction of the light and, as part of its definition, the entry
-// Fresnel transmittance T₁₂; the radial dipoles take plain irradiance, as Jensen & Buhler).
+// Fresnel transmittance T₁₂; the radial dipoles take plain irradiance, as Jensen & Buhler, or with
+// ENTRY_FRESNEL T₁₂ E, as Jensen et al. 2001's BSSRDF).
 
 #import common/direct_light.wgsl
 #import common/color.wgsl
@@ -15,7 +16,7 @@ fn add_incident(sum: ptr<function, SampleLight>, n: vec3f, eta: f32, sample: Uns
         return;
     }
     var e = PI * sample.value * weight;
-    if DIRECTIONAL {
+    if ENTRY_FRESNEL {
         e *= 1.0 - fresnel_dielectric(eta, dot(n, sample.direction));
     }
     (*sum).irradiance += e;

@@ -24,7 +24,7 @@
 //! light direction and normal, exact for one light and one sample, an approximation where several
 //! lights or a coarse node mix directions); irradiance without the entry Fresnel transmittance for the
 //! radial dipoles, as Jensen & Buhler, with it for the directional one, whose definition includes it;
-//! direct light on the samples unless `indirect_samples` adds one bounce of indirect light; blue-noise samples by Yuksel's weighted
+//! the entry Fresnel term on the radial dipoles only with `entry_fresnel`; direct light on the samples unless `indirect_samples` adds one bounce of indirect light; blue-noise samples by Yuksel's weighted
 //! sample elimination of four times as many area-sampled candidates rather than Bowers et al.'s
 //! parallel Poisson disks; the thesis's pixel kd-tree replaced by each tile's quadtree, which the GPU
 //! walks without a build; curvature from G-buffer neighbours rather than Kalogerakis et al.'s estimator.
@@ -56,7 +56,7 @@ use super::{
 use bandwidth::ANGULAR_BINS;
 use samples::{IlluminationTrees, MAX_DEPTH};
 
-pub const PARAMS: [ParamSpec; 13] = with_direct_params![
+pub const PARAMS: [ParamSpec; 14] = with_direct_params![
     ParamSpec {
         name: "samples",
         kind: ParamKind::Int { min: 16, max: 1 << 20 },
@@ -74,6 +74,12 @@ pub const PARAMS: [ParamSpec; 13] = with_direct_params![
         kind: ParamKind::Choice(&["classical", "better", "directional"]),
         default: "classical",
         doc: "diffusion profile: Jensen et al. 2001's dipole, d'Eon 2012's better dipole (fluence term, corrected diffusion coefficient) or Frisvad et al. 2014's directional dipole (a ray source along the refracted light, with the entry Fresnel term)",
+    },
+    ParamSpec {
+        name: "entry_fresnel",
+        kind: ParamKind::Bool,
+        default: "false",
+        doc: "weight the radial dipoles' irradiance by the entry Fresnel transmittance T12, as Jensen et al. 2001's BSSRDF (false: plain irradiance, as Jensen & Buhler 2002; the directional dipole always includes it)",
     },
     ParamSpec {
         name: "indirect_samples",
@@ -339,7 +345,8 @@ impl Subsurface {
             .u32("INDIRECT_SAMPLES", params.int("indirect_samples") as u32)
             .f32("EPSILON", params.float("epsilon") as f32)
             .f32("RHO", params.float("rho") as f32)
-            .bool("DIRECTIONAL", profile == Profile::Directional);
+            .bool("DIRECTIONAL", profile == Profile::Directional)
+            .bool("ENTRY_FRESNEL", profile == Profile::Directional || params.bool("entry_fresnel"));
         let groups = [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, &layout];
         let pipeline = |name: &str, source: &str, groups: &[&wgpu::BindGroupLayout]| {
             compute::pipeline(ctx, name, &format!("{BINDINGS}\n{source}"), defines.clone(), "main", groups)
