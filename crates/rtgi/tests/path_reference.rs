@@ -267,6 +267,37 @@ fn random_walk_reflects_chandrasekhars_semi_infinite_albedo() {
     }
 }
 
+/// `subsurface` on `scene` at 32×32 with the exact sum of its samples (ε 0, ρ 0) and `extra` settings.
+fn render_subsurface(
+    ctx: &GpuContext,
+    scene: &rtgi::scene::Scene,
+    extra: (&str, &str),
+    frames: u32,
+) -> RenderOutput {
+    let settings = RenderSettings {
+        technique: "subsurface".into(),
+        technique_settings: [extra, ("epsilon", "0"), ("rho", "0")]
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .to_vec(),
+        width: 32,
+        height: 32,
+        frames,
+    };
+    render(ctx, scene, &settings, &mut |_, _| {}).expect("render")
+}
+
+/// Inside the slab's front face and inside the sphere of `translucent` at 32×32 (the patches of
+/// `scripts/measure-subsurface-truth.py`): x, y, width, height.
+const SLAB_FRONT: [u32; 4] = [22, 10, 6, 10];
+const SPHERE: [u32; 4] = [3, 11, 7, 9];
+
+/// The mean luminance of `out` in the patch `at` as a share of `reference`'s.
+fn patch_share(out: &RenderOutput, reference: &RenderOutput, [x, y, w, h]: [u32; 4]) -> f64 {
+    use rtgi::metrics::{luminance, region_mean};
+    let patch = |o: &RenderOutput| luminance(region_mean(&o.image, x, y, w, h).expect("patch"));
+    patch(out) / patch(reference)
+}
+
 /// `subsurface` against the random walk it approximates, on `translucent` at 32×32 (CI's share of
 /// `scripts/measure-subsurface-truth.py`): the walk (`max_bounces=0`, 2048 spp), the Lambertian stand-in
 /// every other technique shows, and the exact sums (ε 0, ρ 0) of the classical and the directional
@@ -279,33 +310,16 @@ fn random_walk_reflects_chandrasekhars_semi_infinite_albedo() {
 /// the measured distances.
 #[test]
 fn dipoles_against_the_random_walk() {
-    use rtgi::metrics::{flip, luminance, region_mean};
+    use rtgi::metrics::flip;
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let scene = rtgi::scene::builtin::build("translucent", &[]).expect("translucent");
     let walk = render_scene(&ctx, &scene, 32, 2048, &[("subsurface", "walk"), ("max_bounces", "0")]);
     let stand_in = render_scene(&ctx, &scene, 32, 256, &[("subsurface", "lambertian"), ("max_bounces", "0")]);
-    let subsurface = |dipole: &str| {
-        let settings = RenderSettings {
-            technique: "subsurface".into(),
-            technique_settings: [("dipole", dipole), ("epsilon", "0"), ("rho", "0")]
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .to_vec(),
-            width: 32,
-            height: 32,
-            frames: 1,
-        };
-        render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render")
-    };
-    let (dipole, directional) = (subsurface("classical"), subsurface("directional"));
-    // Inside the slab's front face and inside the sphere (the script's patches at 32×32).
-    let patch = |out: &RenderOutput, [x, y, w, h]: [u32; 4]| {
-        luminance(region_mean(&out.image, x, y, w, h).expect("patch"))
-    };
-    let (slab, sphere) = ([22, 10, 6, 10], [3, 11, 7, 9]);
-    let share = |out: &RenderOutput, at: [u32; 4]| patch(out, at) / patch(&walk, at);
+    let [dipole, directional] =
+        ["classical", "directional"].map(|d| render_subsurface(&ctx, &scene, ("dipole", d), 1));
     let [slab_dipole, slab_stand_in, slab_directional] =
-        [&dipole, &stand_in, &directional].map(|o| share(o, slab));
-    let [sphere_dipole, sphere_directional] = [&dipole, &directional].map(|o| share(o, sphere));
+        [&dipole, &stand_in, &directional].map(|o| patch_share(o, &walk, SLAB_FRONT));
+    let [sphere_dipole, sphere_directional] = [&dipole, &directional].map(|o| patch_share(o, &walk, SPHERE));
     let [flip_dipole, flip_stand_in] =
         [&dipole, &stand_in].map(|o| flip(&walk.image, &o.image).expect("flip"));
     eprintln!(
@@ -332,30 +346,13 @@ fn dipoles_against_the_random_walk() {
 /// Bounds at about twice the measured distances from the walk.
 #[test]
 fn indirect_light_on_the_samples_against_the_walk() {
-    use rtgi::metrics::{luminance, region_mean};
     let ctx = GpuContext::new(&GpuOptions::default()).expect("GPU adapter");
     let scene = rtgi::scene::builtin::build("translucent", &[]).expect("translucent");
     let walk = render_scene(&ctx, &scene, 32, 2048, &[("subsurface", "walk"), ("max_bounces", "1")]);
-    let subsurface = |indirect: &str, frames: u32| {
-        let settings = RenderSettings {
-            technique: "subsurface".into(),
-            technique_settings: [("indirect_samples", indirect), ("epsilon", "0"), ("rho", "0")]
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .to_vec(),
-            width: 32,
-            height: 32,
-            frames,
-        };
-        render(&ctx, &scene, &settings, &mut |_, _| {}).expect("render")
-    };
-    let (direct, indirect) = (subsurface("0", 1), subsurface("4", 8));
-    let patch = |out: &RenderOutput, [x, y, w, h]: [u32; 4]| {
-        luminance(region_mean(&out.image, x, y, w, h).expect("patch"))
-    };
-    let share = |out: &RenderOutput, at: [u32; 4]| patch(out, at) / patch(&walk, at);
-    let (slab, sphere) = ([22, 10, 6, 10], [3, 11, 7, 9]);
-    let [slab_direct, slab_indirect] = [&direct, &indirect].map(|o| share(o, slab));
-    let [sphere_direct, sphere_indirect] = [&direct, &indirect].map(|o| share(o, sphere));
+    let direct = render_subsurface(&ctx, &scene, ("indirect_samples", "0"), 1);
+    let indirect = render_subsurface(&ctx, &scene, ("indirect_samples", "4"), 8);
+    let [slab_direct, slab_indirect] = [&direct, &indirect].map(|o| patch_share(o, &walk, SLAB_FRONT));
+    let [sphere_direct, sphere_indirect] = [&direct, &indirect].map(|o| patch_share(o, &walk, SPHERE));
     eprintln!(
         "slab front: direct {slab_direct:.3}, indirect {slab_indirect:.3}; \
          sphere: direct {sphere_direct:.3}, indirect {sphere_indirect:.3}"
