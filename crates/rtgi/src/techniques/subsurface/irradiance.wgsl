@@ -1,6 +1,7 @@
 // Irradiance of every illumination sample from the analytic lights, emissive triangles and the
-// environment, with shadow rays through the BVH, and (INDIRECT_SAMPLES > 0) one bounce of indirect light: the light samples of the direct-light routine for
-// camera pixels, taken one by one so that each can be weighted by where it enters (the directional
+// environment, with shadow rays through the BVH, and (INDIRECT_SAMPLES > 0) one bounce of indirect
+// light: the light samples of the direct-light routine for camera pixels, taken one by one so that
+// each can be weighted by where it enters (the directional
 // dipole needs the refracted direction of the light and, as part of its definition, the entry
 // Fresnel transmittance T₁₂; the radial dipoles take plain irradiance, as Jensen & Buhler, or with
 // ENTRY_FRESNEL T₁₂ E, as Jensen et al. 2001's BSSRDF).
@@ -12,9 +13,6 @@
 // Adds one light sample: `sample` is what a white Lambertian reflects of it (E cos θ / π per unit
 // weight), `weight` its share after visibility.
 fn add_incident(sum: ptr<function, SampleLight>, n: vec3f, eta: f32, sample: UnshadowedSample, weight: f32) {
-    if weight <= 0.0 || all(sample.value == vec3f(0.0)) {
-        return;
-    }
     var e = PI * sample.value * weight;
     if ENTRY_FRESNEL {
         e *= 1.0 - fresnel_dielectric(eta, dot(n, sample.direction));

@@ -22,9 +22,10 @@
 //! profiles, the three the paper demonstrates: Jensen et al.'s standard dipole, d'Eon's better dipole
 //! and Frisvad et al.'s directional dipole (which takes each node's luminance-weighted mean refracted
 //! light direction and normal, exact for one light and one sample, an approximation where several
-//! lights or a coarse node mix directions); irradiance without the entry Fresnel transmittance for the
-//! radial dipoles, as Jensen & Buhler, with it for the directional one, whose definition includes it;
-//! the entry Fresnel term on the radial dipoles only with `entry_fresnel`; direct light on the samples unless `indirect_samples` adds one bounce of indirect light; blue-noise samples by Yuksel's weighted
+//! lights or a coarse node mix directions); the entry Fresnel transmittance on the radial dipoles'
+//! irradiance only with `entry_fresnel` (Jensen & Buhler use plain irradiance), always on the
+//! directional one, whose definition includes it; direct light on the samples unless
+//! `indirect_samples` adds one bounce of indirect light; blue-noise samples by Yuksel's weighted
 //! sample elimination of four times as many area-sampled candidates rather than Bowers et al.'s
 //! parallel Poisson disks; the thesis's pixel kd-tree replaced by each tile's quadtree, which the GPU
 //! walks without a build; curvature from G-buffer neighbours rather than Kalogerakis et al.'s estimator.
