@@ -246,11 +246,10 @@ pub struct DirectionalDipole {
     pub exit_scale: f32,
 }
 
-/// The part of the directional dipole one source gives: S'_d(x, ω, r) of Frisvad et al.'s Eq. 17,
-/// with x from the source's entry point to the exit point, ω the source's direction and r the
-/// distance to the source.
-fn ray_source(d: &DirectionalDipole, x: Vec3, w: Vec3, r: Vec3, n_o: Vec3) -> Vec3 {
-    let (x_w, w_n, x_n) = (x.dot(w), w.dot(n_o), x.dot(n_o));
+/// The part of the directional dipole one source gives: S'_d(x, ω, r) of Frisvad et al.'s Eq. 17, per
+/// channel, from x·ω and x·n_o (x from the source's entry point to the exit point, ω its direction),
+/// ω·n_o and r, the distance to the source.
+fn ray_source(d: &DirectionalDipole, x_w: Vec3, w_n: f32, x_n: Vec3, r: Vec3) -> Vec3 {
     let tr_r = d.transport * r;
     let r2 = r * r;
     let fall = (-tr_r).map(f32::exp) / (4.0 * PI * PI * r2 * r);
@@ -287,13 +286,13 @@ impl DirectionalDipole {
             self.backlit_depth2
         };
         let d_r = (r2 + depth2).map(f32::sqrt);
-        let real = ray_source(self, x, w12, d_r, n_o);
-        let mut virt = Vec3::ZERO;
-        for c in 0..3 {
-            let x_v = x - self.virtual_offset[c] * n_star;
-            let d_v = x_v.length();
-            virt[c] = ray_source(self, x_v, w_v, Vec3::splat(d_v), n_o)[c];
-        }
+        let real = ray_source(self, Vec3::splat(x_w), w12.dot(n_o), Vec3::splat(x.dot(n_o)), d_r);
+        // The virtual source sits at x_i + o n* with a per-channel offset o: x_v = x − o n*.
+        let o = self.virtual_offset;
+        let v_w = x.dot(w_v) - o * n_star.dot(w_v);
+        let v_n = x.dot(n_o) - o * n_star.dot(n_o);
+        let d_v = (r2 - 2.0 * o * x.dot(n_star) + o * o).max(Vec3::ZERO).map(f32::sqrt);
+        let virt = ray_source(self, v_w, w_v.dot(n_o), v_n, d_v);
         (real - virt).max(Vec3::ZERO)
     }
 }

@@ -167,21 +167,21 @@ fn directional_dipole(m: Medium, x_i: vec3f, n_i: vec3f, w12: vec3f, x_o: vec3f,
     if mu0 > 0.0 {
         depth2 = m.diffusion * mu0 * (m.diffusion * mu0 - 2.0 * m.extrapolation * cos_beta);
     }
-    let real = ray_source(m, x, w12, sqrt(r2 + depth2), n_o);
-    var virt: vec3f;
-    for (var c = 0u; c < 3u; c++) {
-        let x_v = x - m.virtual_offset[c] * n_star;
-        virt[c] = ray_source(m, x_v, w_v, vec3f(length(x_v)), n_o)[c];
-    }
+    let real = ray_source(m, vec3f(x_w), dot(w12, n_o), vec3f(dot(x, n_o)), sqrt(r2 + depth2));
+    // The virtual source sits at x_i + o n* with a per-channel offset o: x_v = x − o n*, its dot
+    // products and length per channel.
+    let o = m.virtual_offset;
+    let v_w = dot(x, w_v) - o * dot(n_star, w_v);
+    let v_n = dot(x, n_o) - o * dot(n_star, n_o);
+    let x_star = dot(x, n_star);
+    let d_v = sqrt(max(r2 - 2.0 * o * x_star + o * o, vec3f(0.0)));
+    let virt = ray_source(m, v_w, dot(w_v, n_o), v_n, d_v);
     return max(real - virt, vec3f(0.0));
 }
 
-// S'_d(x, ω, r) of Frisvad et al.'s Eq. 17: one ray source's share, x from its entry point to the
-// exit point, r the distance to the source.
-fn ray_source(m: Medium, x: vec3f, w: vec3f, r: vec3f, n_o: vec3f) -> vec3f {
-    let x_w = dot(x, w);
-    let w_n = dot(w, n_o);
-    let x_n = dot(x, n_o);
+// S'_d(x, ω, r) of Frisvad et al.'s Eq. 17: one ray source's share, per channel, from x·ω and x·n_o
+// (x from its entry point to the exit point), ω·n_o and r, the distance to the source.
+fn ray_source(m: Medium, x_w: vec3f, w_n: f32, x_n: vec3f, r: vec3f) -> vec3f {
     let tr_r = m.transport * r;
     let r2 = r * r;
     let fall = exp(-tr_r) / (4.0 * PI * PI * r2 * r);
