@@ -16,9 +16,12 @@
 //!    the cluster is below ε and its bounds do not meet the cluster's (ε = 0: every sample, the
 //!    brute-force reference of the same model);
 //! 5. **shade**: direct light, with a translucent material's Lambertian part replaced by
-//!    F_t(η, θ_o)/π · Σ R_d E A.
+//!    F_t(η, θ_o)/π · Σ R_d E A, plus (`single_scattering`) Jensen et al. 2001's single-scattering
+//!    term, by Monte Carlo along the refracted view ray with every light traced through the medium.
 //!
-//! What is and is not modelled: only the multiple-scattering term of the BSSRDF (as the paper); three
+//! What is and is not modelled: the multiple-scattering term of the BSSRDF (as the paper), and its
+//! single-scattering term only with `single_scattering` (isotropic, with the reduced coefficients as
+//! the path tracer's walk; it pairs with the better dipole, whose α'² weighting leaves it room); three
 //! profiles, the three the paper demonstrates: Jensen et al.'s standard dipole, d'Eon's better dipole
 //! and Frisvad et al.'s directional dipole (which takes each node's luminance-weighted mean refracted
 //! light direction and normal, exact for one light and one sample, an approximation where several
@@ -57,7 +60,7 @@ use super::{
 use bandwidth::ANGULAR_BINS;
 use samples::{IlluminationTrees, MAX_DEPTH};
 
-pub const PARAMS: [ParamSpec; 14] = with_direct_params![
+pub const PARAMS: [ParamSpec; 15] = with_direct_params![
     ParamSpec {
         name: "samples",
         kind: ParamKind::Int { min: 16, max: 1 << 20 },
@@ -87,6 +90,12 @@ pub const PARAMS: [ParamSpec; 14] = with_direct_params![
         kind: ParamKind::Int { min: 0, max: 64 },
         default: "0",
         doc: "rays per illumination sample and frame that add one bounce of indirect light to the samples (0: direct light only, as Jensen & Buhler); the frames' average converges",
+    },
+    ParamSpec {
+        name: "single_scattering",
+        kind: ParamKind::Int { min: 0, max: 64 },
+        default: "0",
+        doc: "points per translucent pixel and frame along the refracted view ray that add Jensen et al. 2001's single-scattering term (each lit by every light through the medium; 0: the multiple-scattering dipole alone, as Jensen & Buhler); the frames' average converges",
     },
     ParamSpec {
         name: "rho",
@@ -344,6 +353,7 @@ impl Subsurface {
             .u32("AREA_SAMPLES", params.int("area_samples") as u32)
             .u32("ENV_SAMPLES", params.int("env_samples") as u32)
             .u32("INDIRECT_SAMPLES", params.int("indirect_samples") as u32)
+            .u32("SINGLE_SCATTERING", params.int("single_scattering") as u32)
             .f32("EPSILON", params.float("epsilon") as f32)
             .f32("RHO", params.float("rho") as f32)
             .bool("DIRECTIONAL", profile == Profile::Directional)
