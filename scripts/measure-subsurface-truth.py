@@ -9,8 +9,8 @@ spot light), the ground truth is `path` with `subsurface=walk max_bounces=0`: di
 transport simulated (a random walk through each medium under its rough dielectric boundary), which is what
 `subsurface` approximates with the dipole. Against it: `subsurface` at its defaults and with the exact sum of
 its samples (ε = 0, ρ = 0: the dipole alone, without the hierarchy's error), the same with d'Eon's better dipole
-(`dipole=better`), with the entry Fresnel term (`entry_fresnel=true`) and with Frisvad et al.'s directional dipole (`dipole=directional`, also at the default ε and ρ),
-and `path` with
+(`dipole=better`), with the entry Fresnel term (`entry_fresnel=true`) and with Frisvad et al.'s directional dipole (`dipole=directional`, also at the default ε and ρ), the classical and the
+better dipole with Jensen et al.'s single-scattering term (`single_scattering=4`, 16 frames), and `path` with
 `subsurface=lambertian max_bounces=0` (what every technique without subsurface transport shows: the Lambertian
 of the medium's total diffuse reflectance). Then one bounce of indirect light: `subsurface indirect_samples=4`
 against the walk with `max_bounces=1`, on the translucent patches. Last, equal time: the walk at the samples
@@ -30,6 +30,8 @@ OUT = m.scratch("subsurface-truth")
 # Patches as fractions (x, y, w, h) of the image: inside the slab's front face and inside the sphere.
 PATCHES = {"slab front": (0.69, 0.31, 0.19, 0.31), "sphere": (0.08, 0.34, 0.23, 0.27)}
 SPP_PER_FRAME = 64
+# Frames over which the single-scattering term's Monte Carlo estimate converges.
+SINGLE_FRAMES = 16
 
 
 def main():
@@ -73,6 +75,16 @@ def main():
          *render("directional-exact", "subsurface", {"dipole": "directional", "epsilon": 0, "rho": 0})),
         ("`subsurface dipole=directional` (defaults otherwise)", *render("directional", "subsurface",
                                                                        {"dipole": "directional"})),
+        (f"`subsurface single_scattering=4` ε 0, ρ 0, {SINGLE_FRAMES} frames (the classical dipole + single "
+         "scattering)", *render("single-exact", "subsurface", {"single_scattering": 4, "epsilon": 0, "rho": 0},
+                                frames=SINGLE_FRAMES)),
+        (f"`subsurface dipole=better single_scattering=4` ε 0, ρ 0, {SINGLE_FRAMES} frames (the better dipole + "
+         "single scattering)", *render("better-single-exact", "subsurface",
+                                       {"dipole": "better", "single_scattering": 4, "epsilon": 0, "rho": 0},
+                                       frames=SINGLE_FRAMES)),
+        (f"`subsurface dipole=better single_scattering=4`, {SINGLE_FRAMES} frames (defaults otherwise)",
+         *render("better-single", "subsurface", {"dipole": "better", "single_scattering": 4},
+                 frames=SINGLE_FRAMES)),
     ]
 
     def region(name):
@@ -104,6 +116,12 @@ def main():
     # costs, and at 4, 16 and 64 times that, against the reference (whose own noise is in every row).
     _, steady = render("dipole-steady", "subsurface", {}, frames=4)
     subsurface_ms = steady["frame_gpu"]["mean_ms"]
+    # The better dipole with single scattering: one frame's error, and a steady frame's time.
+    better_single_frame, _ = render("better-single-1", "subsurface", {"dipole": "better", "single_scattering": 4})
+    _, better_single_steady = render("better-single-steady", "subsurface",
+                                     {"dipole": "better", "single_scattering": 4}, frames=4)
+    better_single_ms = better_single_steady["frame_gpu"]["mean_ms"]
+    better_single_error = m.compare(rtgi, reference, better_single_frame)
     walk_ms_per_spp = ref_stats["frame_gpu"]["mean_ms"] / SPP_PER_FRAME
     equal_spp = max(1, round(subsurface_ms / walk_ms_per_spp))
     equal_rows = []
@@ -139,6 +157,7 @@ def main():
     (_, dipole, dipole_patches, _), (_, lambertian, lambertian_patches, _) = rows[1], rows[2]
     (_, better, better_patches, _), (_, entry, entry_patches, _) = rows[3], rows[4]
     (_, directional, directional_patches, _) = rows[5]
+    (_, single, single_patches, _), (_, better_single, better_single_patches, _) = rows[7], rows[8]
 
     def share(patches, p):
         return f"{100 * patches[p]['test_luminance'] / patches[p]['reference_luminance']:.0f} %"
@@ -155,7 +174,12 @@ def main():
               f"slab's front and {share(entry_patches, 'sphere')} on the sphere. The directional dipole (exact sum): FLIP "
               f"{directional['flip']:.4f}, relMSE {directional['rel_mse']:.5f}, "
               f"{share(directional_patches, 'slab front')} on the slab's front and "
-              f"{share(directional_patches, 'sphere')} on the sphere."]
+              f"{share(directional_patches, 'sphere')} on the sphere. With Jensen et al.'s single-scattering "
+              f"term the classical dipole has FLIP {single['flip']:.4f}, relMSE {single['rel_mse']:.5f}, "
+              f"{share(single_patches, 'slab front')} on the slab's front and {share(single_patches, 'sphere')} "
+              f"on the sphere, the better dipole FLIP {better_single['flip']:.4f}, relMSE "
+              f"{better_single['rel_mse']:.5f}, {share(better_single_patches, 'slab front')} and "
+              f"{share(better_single_patches, 'sphere')}."]
     lines += ["", "## One bounce of indirect light", "",
               f"Against `path subsurface=walk max_bounces=1` at {args.spp} samples per pixel (direct light and one "
               "bounce, off the floor, the wall and the other object, into each medium), in the translucent "
@@ -174,7 +198,9 @@ def main():
               "reference:", "",
               "| estimator | GPU time | relMSE | FLIP |", "|---|---:|---:|---:|",
               f"| `subsurface` (defaults), 1 frame | {subsurface_ms:.1f} ms | {dipole_default['rel_mse']:.5f} | "
-              f"{dipole_default['flip']:.4f} |"]
+              f"{dipole_default['flip']:.4f} |",
+              f"| `subsurface dipole=better single_scattering=4`, 1 frame | {better_single_ms:.1f} ms | "
+              f"{better_single_error['rel_mse']:.5f} | {better_single_error['flip']:.4f} |"]
     for k, spp, error in equal_rows:
         lines.append(f"| walk, {spp} spp ({k}× the time) | {spp * walk_ms_per_spp:.1f} ms | "
                      f"{error['rel_mse']:.5f} | {error['flip']:.4f} |")
