@@ -11,6 +11,10 @@
 // M_ij ≈ (2π / N) Σ_s V(ω_s) Y_i(ω_s) Y_j(ω_s). A workgroup is one vertex and one batch of GLOSSY_BATCH
 // directions: each invocation traces one direction and writes its harmonics (zero when occluded) to
 // workgroup memory, then the invocations share out the matrix's P entries, each summing over the batch.
+//
+// SELF_TRANSFER: each point's matrix is of its rigid part alone, in the part's space (parts.wgsl), and
+// maps the environment turned into that space (self_transfer.wgsl) to transferred radiance in that
+// space; shade_glossy.wgsl turns the pixel's normal and view into it.
 
 #import common/scene.wgsl
 #import common/hsh.wgsl
@@ -26,6 +30,8 @@ struct Batch {
 // The environment's SH (rgb) and each vertex's transferred radiance, order² vec4f per vertex.
 @group(2) @binding(2) var<storage, read> environment_sh: array<vec4f>;
 @group(2) @binding(3) var<storage, read_write> transferred: array<vec4f>;
+// SELF_TRANSFER: per instance the environment's SH in the instance's own space (self_transfer.wgsl).
+@group(2) @binding(5) var<storage, read> instance_sh: array<vec4f>;
 
 const GLOSSY_BATCH: u32 = 64u;
 
@@ -50,10 +56,9 @@ fn accumulate_matrix(
     var d = vec3f(0.0, 0.0, 1.0);
     var visible = false;
     if vertex < POINT_COUNT && sample < TRANSFER_SAMPLES {
-        let p = point_surface(vertex);
-        let n = p.normal;
-        d = glossy_direction(p.seed, sample, n);
-        visible = !SHADOWED || !trace_any(Ray(offset_origin(p.position, n), d), 0.0, FLT_MAX);
+        let f = transfer_frame(vertex);
+        d = glossy_direction(f.seed, sample, f.normal);
+        visible = !SHADOWED || !transfer_occluded(f, d);
     }
     for (var k = 0u; k < count; k++) {
         harmonics[lane * count + k] = select(0.0, sh_one(k, d), visible);
@@ -82,8 +87,9 @@ fn accumulate_matrix(
     }
 }
 
-// L'_i = Σ_j M_ij L_j, one coefficient of one vertex per invocation, whenever the environment's SH or
-// the matrices change.
+// L'_i = Σ_j M_ij L_j, one coefficient of one vertex per invocation, whenever the environment's SH,
+// the matrices or (SELF_TRANSFER) the parts' placement change; L is the environment as the point's
+// part sees it.
 @compute @workgroup_size(64)
 fn transfer_lighting(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
     let count = batch.order * batch.order;
@@ -94,11 +100,19 @@ fn transfer_lighting(@builtin(global_invocation_id) id: vec3u, @builtin(num_work
     let vertex = element / count;
     let i = element % count;
     let matrix = vertex * (count * (count + 1u) / 2u);
+    var instance = NO_INSTANCE;
+    if SELF_TRANSFER {
+        instance = vertex_instances[point_vertex(vertex)];
+    }
     var sum = vec3f(0.0);
     for (var j = 0u; j < count; j++) {
         let a = min(i, j);
         let b = max(i, j);
-        sum += transfer[matrix + a * (2u * count - a + 1u) / 2u + b - a] * environment_sh[j].rgb;
+        var light = environment_sh[j].rgb;
+        if instance != NO_INSTANCE {
+            light = instance_sh[instance * count + j].rgb;
+        }
+        sum += transfer[matrix + a * (2u * count - a + 1u) / 2u + b - a] * light;
     }
     transferred[element] = vec4f(sum, 0.0);
 }

@@ -18,10 +18,11 @@
 //! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
 //! corners, so shadows need tessellated meshes (as in the paper), or per-texel transfer
 //! (`texels_per_edge`: every triangle's own patch of texels, points.wgsl). Moving meshes get self-transfer
-//! (`moving_transfer=self`, shadowed and unshadowed transfer): each rigid part's transfer of its own
-//! geometry, in its own space, lit by the environment turned into that space (self_transfer.wgsl).
-//! Not built yet (issue 14): a UV-unwrapped lightmap atlas, interreflected glossy transfer,
-//! self-transfer for the other transfers.
+//! (`moving_transfer=self`, shadowed, unshadowed and glossy transfer): each rigid part's transfer of
+//! its own geometry, in its own space (parts.wgsl), lit by the environment turned into that space
+//! (self_transfer.wgsl); glossy transfer's radiance stays in the part's space and is shaded with the
+//! pixel's normal and view turned into it. Not built yet: a UV-unwrapped lightmap atlas, interreflected
+//! glossy transfer, self-transfer for interreflected and wavelet transfer.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
@@ -147,7 +148,7 @@ pub const PARAMS: [ParamSpec; 19] = [
         name: "moving_transfer",
         kind: ParamKind::Choice(&["self", "recompute"]),
         default: "self",
-        doc: "scenes with moving meshes, shadowed and unshadowed transfer. self: each rigid part's transfer \
+        doc: "scenes with moving meshes, shadowed, unshadowed and glossy transfer. self: each rigid part's transfer \
               of its own geometry alone, in its own space, precomputed once: a moving mesh shadows only \
               itself and turns its transfer with it (the environment's SH is turned into its space when it \
               or the environment moves), the static meshes shadow only each other; recompute: every \
@@ -400,17 +401,17 @@ impl SelfTransfer {
         Ok(SelfTransfer { turn, group, rotations, instances, order, turned_for: None, turns: 0 })
     }
 
-    /// Turns the environment's SH into every instance's space unless current.
+    /// Turns the environment's SH into every instance's space unless current; true when it did.
     fn turn(
         &mut self,
         fc: &FrameContext,
         profiler: &mut Profiler,
         new_environment: bool,
         max_workgroups: u32,
-    ) -> Result<(), RenderError> {
+    ) -> Result<bool, RenderError> {
         let geometry = fc.gpu_scene.geometry_version;
         if !new_environment && self.turned_for == Some(geometry) {
-            return Ok(());
+            return Ok(false);
         }
         let mut floats = Vec::new();
         for m in fc.gpu_scene.instance_world_to_object() {
@@ -435,7 +436,7 @@ impl SelfTransfer {
         })?;
         self.turned_for = Some(geometry);
         self.turns += 1;
-        Ok(())
+        Ok(true)
     }
 }
 
@@ -490,7 +491,8 @@ impl Prt {
         };
 
         // Transfer per rigid part (transfer.wgsl's SELF_TRANSFER) when meshes may move.
-        let parts = (matches!(kind, "shadowed" | "unshadowed") && p.choice("moving_transfer") == "self")
+        let parts = (matches!(kind, "shadowed" | "unshadowed" | "glossy")
+            && p.choice("moving_transfer") == "self")
             .then(|| setup.gpu_scene.bvh_parts(vertices as usize))
             .flatten();
         let instances =
@@ -535,6 +537,8 @@ impl Prt {
             None => read_only_words("prt vertex instances", &[NO_INSTANCE])?,
         };
         let layouts = |own| [&setup.gpu_scene.bind_group_layout, &setup.frame.bind_group_layout, own];
+        // Self-transfer's environment, turned into each instance's space (self_transfer.wgsl).
+        let instance_sh = storage("prt instance sh", u64::from(instances.max(1)) * u64::from(count) * 16)?;
 
         let batch = if glossy { GLOSSY_BATCH } else { BATCH };
         let batch_values: Vec<Batch> =
@@ -549,6 +553,7 @@ impl Prt {
                 compute::storage_buffer_entry(2, true),
                 compute::storage_buffer_entry(3, false),
                 compute::storage_buffer_entry(4, true),
+                compute::storage_buffer_entry(5, true),
             ],
         );
         let transfer_group = |a: &wgpu::Buffer, b: &wgpu::Buffer| {
@@ -562,6 +567,7 @@ impl Prt {
                     a.as_entire_binding(),
                     b.as_entire_binding(),
                     vertex_instances.as_entire_binding(),
+                    instance_sh.as_entire_binding(),
                 ],
             )
         };
@@ -657,33 +663,12 @@ impl Prt {
                 .build(ctx)
             })
             .transpose()?;
-        let instance_sh = storage("prt instance sh", u64::from(instances.max(1)) * u64::from(count) * 16)?;
         let self_transfer = match (&parts, &projection) {
             (Some(_), Some(projection)) => {
                 Some(SelfTransfer::new(setup, projection, &instance_sh, instances, order)?)
             }
             _ => None,
         };
-        let read_only = |b: u32| compute::storage_buffer_entry(b, true);
-        let mut shade_entries = vec![
-            compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
-            storage_texture_entry(1, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
-            compute::uniform_entry(2),
-            read_only(3),
-        ];
-        if !wavelets && (!glossy || tabled) {
-            // The environment's SH (diffuse) or the Rx(90°) blocks (glossy through the tables).
-            shade_entries.push(read_only(4));
-        }
-        if tabled {
-            shade_entries.push(read_only(5));
-        }
-        let vectors = !glossy && !wavelets;
-        if vectors {
-            // Self-transfer's vertex instances and the environment turned into each instance.
-            shade_entries.extend([read_only(5), read_only(6)]);
-        }
-        let shade_layout = compute::layout(ctx, "prt shade", &shade_entries);
         let (direct_view, output_view) =
             (direct_target.create_view(&Default::default()), setup.output.create_view(&Default::default()));
         let mut shade_resources = vec![
@@ -696,16 +681,31 @@ impl Prt {
                 TransferPasses::Vectors { .. } => buffer.as_entire_binding(),
             },
         ];
-        if let (TransferPasses::Vectors { .. }, Some(projection)) = (&passes, &projection) {
-            shade_resources.extend([
+        // Bindings 4 on, read-only storage, in binding order: diffuse transfer's environment SH,
+        // self-transfer's vertex instances and the environment turned into each instance; glossy
+        // transfer's Rx(90°) blocks and BRDF tables (through the tables), then its vertex instances.
+        match (&passes, &projection) {
+            (TransferPasses::Vectors { .. }, Some(projection)) => shade_resources.extend([
                 projection.coefficients.as_entire_binding(),
                 vertex_instances.as_entire_binding(),
                 instance_sh.as_entire_binding(),
-            ]);
+            ]),
+            (TransferPasses::Matrices { .. }, _) => {
+                if let (Some(rotation), Some(tables)) = (&rotation, &tables) {
+                    shade_resources.extend([rotation.as_entire_binding(), tables.buffer.as_entire_binding()]);
+                }
+                shade_resources.push(vertex_instances.as_entire_binding());
+            }
+            _ => {}
         }
-        if let (Some(rotation), Some(tables)) = (&rotation, &tables) {
-            shade_resources.extend([rotation.as_entire_binding(), tables.buffer.as_entire_binding()]);
-        }
+        let mut shade_entries = vec![
+            compute::texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }),
+            storage_texture_entry(1, OUTPUT_FORMAT, wgpu::StorageTextureAccess::ReadWrite),
+            compute::uniform_entry(2),
+        ];
+        shade_entries
+            .extend((3..shade_resources.len() as u32).map(|b| compute::storage_buffer_entry(b, true)));
+        let shade_layout = compute::layout(ctx, "prt shade", &shade_entries);
         let shade_group = compute::bind_group(ctx, "prt shade", &shade_layout, &shade_resources);
         let shade_defines = match &tables {
             Some(t) => t.shape.defines(defines),
@@ -870,7 +870,12 @@ impl Prt {
 /// The transfer passes' shader: the direction lattice, then the vectors' or the matrices' passes.
 fn transfer_wgsl(glossy: bool) -> String {
     let passes = if glossy { include_str!("glossy.wgsl") } else { include_str!("transfer.wgsl") };
-    format!("{}\n{}\n{passes}", include_str!("lattice.wgsl"), include_str!("points.wgsl"))
+    format!(
+        "{}\n{}\n{}\n{passes}",
+        include_str!("lattice.wgsl"),
+        include_str!("points.wgsl"),
+        include_str!("parts.wgsl")
+    )
 }
 
 /// The shading pass's shader for `transfer` (and `glossy_lobe`): the pixel's triangle and point, then
@@ -903,7 +908,8 @@ impl Technique for Prt {
         };
         self.lit &= !new_transfer && !new_environment;
         if let Some(parts) = self.self_transfer.as_mut() {
-            parts.turn(fc, profiler, new_environment, self.max_workgroups)?;
+            // Glossy transfer's radiance is of the turned environment: light the vertices again.
+            self.lit &= !parts.turn(fc, profiler, new_environment, self.max_workgroups)?;
         }
         if let TransferPasses::Wavelets(w) = &mut self.transfer.passes {
             if new_transfer {

@@ -65,6 +65,14 @@ struct PointSurface {
     vertex: u32,
 }
 
+// PointSurface::vertex of `point`, without the rest of its surface.
+fn point_vertex(point: u32) -> u32 {
+    if TEXELS_PER_EDGE == 0u {
+        return point;
+    }
+    return indices[point / PATCH_POINTS * 3u];
+}
+
 fn point_surface(point: u32) -> PointSurface {
     if TEXELS_PER_EDGE == 0u {
         let v = vertices[point];
@@ -89,5 +97,5 @@ fn point_surface(point: u32) -> PointSurface {
     // The two triangles of an edge interpolate its points in different orders, so their positions may
     // differ in the last bits: the seed hashes the position on a grid of 1/4096 m.
     let cell = bitcast<vec3u>(vec3i(round(position * 4096.0)));
-    return PointSurface(position, normal, hash2(hash2(cell.x, cell.y), cell.z), indices[triangle * 3u]);
+    return PointSurface(position, normal, hash2(hash2(cell.x, cell.y), cell.z), point_vertex(point));
 }

@@ -4,7 +4,9 @@
 
 #import common/sh_lobes.wgsl
 
+@group(2) @binding(4) var<storage, read> vertex_instances: array<u32>;
+
 fn environment_light(s: GSurface, p: TrianglePoint) -> vec3f {
-    shaded = p;
-    return phong_lobes_reflected(s.material, s.normal, s.view, shape.order);
+    let local = glossy_surface(s, p);
+    return phong_lobes_reflected(local.material, local.normal, local.view, shape.order);
 }

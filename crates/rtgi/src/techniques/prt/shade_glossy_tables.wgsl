@@ -4,8 +4,8 @@
 
 @group(2) @binding(4) var<storage, read> rotation_x90: array<f32>;
 @group(2) @binding(5) var<storage, read> brdf_tables: array<f32>;
+@group(2) @binding(6) var<storage, read> vertex_instances: array<u32>;
 
 fn environment_light(s: GSurface, p: TrianglePoint) -> vec3f {
-    shaded = p;
-    return harmonic_shading(s, shape.order);
+    return harmonic_shading(glossy_surface(s, p), shape.order);
 }

@@ -14,11 +14,8 @@
 // the others 1). Back faces (hit against their normals) pass nothing on: transfer is for the side the
 // normals point to. Layout: transfer[(vertex · order² + k) · CHANNELS + channel].
 //
-// SELF_TRANSFER (scenes with moving meshes, shadowed and unshadowed transfer): every vertex's transfer
-// is that of its rigid part alone, in the part's own space: a moving mesh's vertices see only their own
-// mesh (its instance's bottom level, in the space it was uploaded in), the static meshes' see only the
-// static meshes (in world space). Such transfer stays true however the part moves, turned with it
-// (shade_diffuse.wgsl lights it with the environment turned into the part's space).
+// SELF_TRANSFER: transfer per rigid part (parts.wgsl); shade_diffuse.wgsl lights it with the
+// environment turned into the part's space.
 
 #import common/scene.wgsl
 #import common/hsh.wgsl
@@ -34,44 +31,6 @@ struct Batch {
 // Interreflection: the previous bounce's transfer increment and this bounce's (CHANNELS = 3 each).
 @group(2) @binding(2) var<storage, read> previous_bounce: array<f32>;
 @group(2) @binding(3) var<storage, read_write> this_bounce: array<f32>;
-// SELF_TRANSFER: per vertex, its BVH instance, or NO_INSTANCE for the static meshes (GpuScene::bvh_parts).
-@group(2) @binding(4) var<storage, read> vertex_instances: array<u32>;
-
-// Where a vertex's transfer rays start, about which normal, and the part of the BVH they see.
-struct TransferFrame {
-    origin: vec3f,
-    normal: vec3f,
-    // Node reference of the part's root (0: the whole scene).
-    root: u32,
-    // Seeds the point's directions.
-    seed: u32,
-}
-
-fn transfer_frame(point: u32) -> TransferFrame {
-    let p = point_surface(point);
-    let n = p.normal;
-    let origin = offset_origin(p.position, n);
-    if !SELF_TRANSFER {
-        return TransferFrame(origin, n, 0u, p.seed);
-    }
-    let instance = vertex_instances[p.vertex];
-    if instance == NO_INSTANCE {
-        return TransferFrame(origin, n, STATIC_ROOT, p.seed);
-    }
-    // Rigid motion (and uniform scale) maps normals as directions.
-    let part = bvh_instances[instance];
-    return TransferFrame(
-        bvh_affine(part, origin, 1.0),
-        normalize(bvh_affine(part, n, 0.0)),
-        part.root << 3u,
-        p.seed,
-    );
-}
-
-fn transfer_occluded(f: TransferFrame, d: vec3f) -> bool {
-    let ray = Ray(f.origin, d);
-    return trace_any_from(ray, bvh_ray(ray), f.root, 0.0, FLT_MAX);
-}
 
 const BATCH: u32 = 32u;
 // Sample s of a point's cosine-distributed directions (world space; `seed`: PointSurface::seed).
