@@ -132,6 +132,8 @@ const COUNTER_TRUNCATED: u32 = 4u;
 // Nodes in the order the tree pass aggregates them: deepest level first.
 @group(2) @binding(11) var<storage, read_write> node_order: array<u32>;
 // Binding 12 is the output (shade.wgsl).
+// Per pixel, this frame's single-scattered light (single.wgsl; one element when SINGLE_SCATTERING = 0).
+@group(2) @binding(13) var<storage, read_write> single_light: array<vec4f>;
 
 // The dipole's diffuse reflectance profile R_d(r), classical (Jensen et al. 2001) or better (d'Eon
 // 2012) by its weights (CPU twin `scene::subsurface::Dipole::profile`).

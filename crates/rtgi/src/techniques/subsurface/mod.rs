@@ -15,9 +15,11 @@
 //! 4. **traversal**: one tree traversal per job, a node used whole when its solid angle A/d² seen from
 //!    the cluster is below ε and its bounds do not meet the cluster's (ε = 0: every sample, the
 //!    brute-force reference of the same model);
-//! 5. **shade**: direct light, with a translucent material's Lambertian part replaced by
-//!    F_t(η, θ_o)/π · Σ R_d E A, plus (`single_scattering`) Jensen et al. 2001's single-scattering
-//!    term, by Monte Carlo along the refracted view ray with every light traced through the medium.
+//! 5. **single scattering** (`single_scattering` > 0): Jensen et al. 2001's single-scattering term
+//!    per translucent pixel, by Monte Carlo along the refracted view ray with every light traced
+//!    through the medium;
+//! 6. **shade**: direct light, with a translucent material's Lambertian part replaced by
+//!    F_t(η, θ_o)/π · Σ R_d E A, plus the single-scattered light.
 //!
 //! What is and is not modelled: the multiple-scattering term of the BSSRDF (as the paper), and its
 //! single-scattering term only with `single_scattering` (isotropic, with the reduced coefficients as
@@ -238,6 +240,8 @@ pub struct Subsurface {
     tree: wgpu::ComputePipeline,
     clusters: wgpu::ComputePipeline,
     traverse: wgpu::ComputePipeline,
+    /// Jensen et al.'s single-scattering term (`single_scattering` > 0), before shading.
+    single: Option<wgpu::ComputePipeline>,
     shade: wgpu::ComputePipeline,
     group: wgpu::BindGroup,
     levels: DispatchSlots,
@@ -323,8 +327,13 @@ impl Subsurface {
             zeroed("subsurface counters", 4 * COUNTERS.len() as u64)?,
             storage("subsurface node order", bytemuck::cast_slice(&trees.order))?,
         ];
-        let bytes = buffers.iter().map(wgpu::Buffer::size).sum();
-        // The buffers in order, then the output.
+        let single_points = params.int("single_scattering") as u32;
+        let single_light = zeroed(
+            "subsurface single scattering",
+            if single_points > 0 { u64::from(pixels) * 16 } else { 16 },
+        )?;
+        let bytes = buffers.iter().chain([&single_light]).map(wgpu::Buffer::size).sum();
+        // The buffers in order, then the output, then the single-scattered light.
         let mut entries: Vec<wgpu::BindGroupLayoutEntry> =
             (0..buffers.len() as u32).map(|b| storage_buffer_entry(b, false)).collect();
         entries.push(storage_texture_entry(
@@ -332,11 +341,13 @@ impl Subsurface {
             OUTPUT_FORMAT,
             wgpu::StorageTextureAccess::ReadWrite,
         ));
+        entries.push(storage_buffer_entry(buffers.len() as u32 + 1, false));
         let layout = compute::layout(ctx, "subsurface", &entries);
         let output = setup.output.create_view(&Default::default());
         let mut resources: Vec<wgpu::BindingResource> =
             buffers.iter().map(|b| b.as_entire_binding()).collect();
         resources.push(wgpu::BindingResource::TextureView(&output));
+        resources.push(single_light.as_entire_binding());
         let group = compute::bind_group(ctx, "subsurface", &layout, &resources);
 
         let levels: Vec<Level> =
@@ -353,7 +364,7 @@ impl Subsurface {
             .u32("AREA_SAMPLES", params.int("area_samples") as u32)
             .u32("ENV_SAMPLES", params.int("env_samples") as u32)
             .u32("INDIRECT_SAMPLES", params.int("indirect_samples") as u32)
-            .u32("SINGLE_SCATTERING", params.int("single_scattering") as u32)
+            .u32("SINGLE_SCATTERING", single_points)
             .f32("EPSILON", params.float("epsilon") as f32)
             .f32("RHO", params.float("rho") as f32)
             .bool("DIRECTIONAL", profile == Profile::Directional)
@@ -370,6 +381,11 @@ impl Subsurface {
             tree: pipeline("subsurface tree", include_str!("tree.wgsl"), &tree_groups)?,
             clusters: pipeline("subsurface clusters", include_str!("clusters.wgsl"), &groups)?,
             traverse: pipeline("subsurface traversal", include_str!("traverse.wgsl"), &groups)?,
+            single: if single_points > 0 {
+                Some(pipeline("subsurface single scattering", include_str!("single.wgsl"), &groups)?)
+            } else {
+                None
+            },
             shade: pipeline("subsurface shade", include_str!("shade.wgsl"), &groups)?,
             group,
             levels: slots,
@@ -434,6 +450,9 @@ impl Technique for Subsurface {
             profiler.pass(fc.ctx, "subsurface traversal", |encoder| {
                 compute::dispatch(encoder, "subsurface traversal", &self.traverse, &groups, [x, y, 1]);
             })?;
+        }
+        if let Some(single) = &self.single {
+            compute::frame_pass(fc, profiler, "subsurface single scattering", single, &self.group)?;
         }
         compute::frame_pass(fc, profiler, "subsurface shade", &self.shade, &self.group)
     }

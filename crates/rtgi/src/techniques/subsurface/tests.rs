@@ -37,6 +37,7 @@ fn shaders_validate_and_layouts_match() {
         ("clusters", include_str!("clusters.wgsl")),
         ("traverse", include_str!("traverse.wgsl")),
         ("shade", include_str!("shade.wgsl")),
+        ("single", include_str!("single.wgsl")),
         ("place", include_str!("place.wgsl")),
     ] {
         validate(name, &format!("{BINDINGS}\n{source}"), &test_defines());
