@@ -183,6 +183,11 @@ fn lit_plane_at(degrees: f32) -> Scene {
     }
 }
 
+/// The mean of the central 8×8 pixels of a 32×32 image of the lit plane (within 1° of the normal view).
+fn central_mean(image: &[Vec3]) -> glam::DVec3 {
+    (12..20).flat_map(|y| (12..20).map(move |x| image[y * 32 + x].as_dvec3())).sum::<glam::DVec3>() / 64.0
+}
+
 /// On a plane much wider than the diffusion length under uniform irradiance E, Σ R_d(r_i) E A_i is
 /// the integral of the profile, the closed-form total diffuse reflectance, so the pixels near the
 /// centre (within 1° of normal incidence) show L = (1 − F(η, 1)) R E / π on average (each pixel alone
@@ -215,13 +220,7 @@ fn lit_plane_matches_the_total_diffuse_reflectance() {
         let expected = entry * transmitted * medium.total_diffuse_reflectance_of(model);
         let params = settings(set);
         let mut sss = Subsurface::new(&f.setup(&params)).expect("subsurface");
-        let image = f.render_rgb(&mut sss, 1);
-        let mut mean = Vec3::ZERO;
-        for y in 12..20 {
-            for x in 12..20 {
-                mean += image[y * 32 + x] / 64.0;
-            }
-        }
+        let mean = central_mean(&f.render_rgb(&mut sss, 1)).as_vec3();
         let counters = sss.read_counters(&f.ctx).expect("counters");
         let rel = (mean / expected - 1.0).abs().max_element();
         eprintln!("{set:?}: mean {mean} against {expected}: {rel:.5}; counters {counters:?}");
@@ -251,14 +250,7 @@ fn lit_plane_single_scattering_matches_the_half_space() {
         let mut central_mean = |set: &[(&str, &str)]| {
             let params = settings(set);
             let mut sss = Subsurface::new(&f.setup(&params)).expect("subsurface");
-            let image = f.render_rgb(&mut sss, frames);
-            let mut mean = Vec3::ZERO;
-            for y in 12..20 {
-                for x in 12..20 {
-                    mean += image[y * 32 + x] / 64.0;
-                }
-            }
-            mean
+            central_mean(&f.render_rgb(&mut sss, frames)).as_vec3()
         };
         let base = [("samples", "1024"), ("epsilon", "0"), ("rho", "0")];
         let dipole = central_mean(&base);
@@ -313,13 +305,7 @@ fn lit_plane_matches_the_directional_dipole_twin() {
         let params =
             settings(&[("samples", "32768"), ("epsilon", "0"), ("rho", "0"), ("dipole", "directional")]);
         let mut sss = Subsurface::new(&f.setup(&params)).expect("subsurface");
-        let image = f.render_rgb(&mut sss, 1);
-        let mut mean = glam::DVec3::ZERO;
-        for y in 12..20 {
-            for x in 12..20 {
-                mean += image[y * 32 + x].as_dvec3() / 64.0;
-            }
-        }
+        let mean = central_mean(&f.render_rgb(&mut sss, 1));
         assert_eq!(sss.read_counters(&f.ctx).expect("counters")[4], 0, "walks were cut short");
         let rel = (mean / expected - 1.0).abs().max_element();
         eprintln!("{degrees}°: mean {mean} against {expected}: {rel:.6}");
