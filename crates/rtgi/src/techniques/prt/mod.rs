@@ -5,7 +5,8 @@
 //! environment's light between the surfaces (`transfer=interreflected`, RGB), order² coefficients
 //! per channel (transfer.wgsl); or a glossy transfer matrix (`transfer=glossy`), the SH operator
 //! that turns the environment's radiance into the vertex's self-shadowed incident radiance
-//! (glossy.wgsl). The environment is projected into SH on the GPU and turned with it (the shared
+//! (glossy.wgsl), with a second, RGB matrix for the light of `bounces` bounces off the other surfaces
+//! (`transfer=glossy-interreflected`, which gathers interreflected transfer vectors). The environment is projected into SH on the GPU and turned with it (the shared
 //! `env_projection`). Per frame, diffuse transfer gives every pixel's irradiance as the dot product
 //! of its vertices' interpolated transfer with the environment's SH (shade_diffuse.wgsl); glossy
 //! transfer multiplies every vertex's matrix with the environment's SH when either changes, then
@@ -21,8 +22,9 @@
 //! (`moving_transfer=self`, shadowed, unshadowed and glossy transfer): each rigid part's transfer of
 //! its own geometry, in its own space (parts.wgsl), lit by the environment turned into that space
 //! (self_transfer.wgsl); glossy transfer's radiance stays in the part's space and is shaded with the
-//! pixel's normal and view turned into it. Not built yet: a UV-unwrapped lightmap atlas, interreflected
-//! glossy transfer, self-transfer for interreflected and wavelet transfer.
+//! pixel's normal and view turned into it. Not built yet: a UV-unwrapped lightmap atlas, light
+//! bounced off glossy surfaces' specular lobes (interreflection reflects diffusely), self-transfer for
+//! interreflected and wavelet transfer.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
@@ -46,7 +48,8 @@ mod wavelet_tests;
 use wavelet::{WaveletPasses, WaveletSettings};
 
 /// What the transfer vectors hold.
-pub const TRANSFERS: &[&str] = &["shadowed", "unshadowed", "interreflected", "glossy", "wavelet"];
+pub const TRANSFERS: &[&str] =
+    &["shadowed", "unshadowed", "interreflected", "glossy", "glossy-interreflected", "wavelet"];
 
 /// How glossy transfer's radiance is reflected (`glossy_lobe`).
 pub const GLOSSY_LOBES: &[&str] = &["ggx", "phong"];
@@ -81,7 +84,9 @@ pub const PARAMS: [ParamSpec; 19] = [
               bounces of the environment's light between the surfaces (RGB: 3 × order² per vertex); \
               glossy: a matrix per vertex from the environment's SH to the vertex's shadowed incident \
               radiance, shaded with the whole BRDF (diffuse and specular lobes; order ≤ 6, \
-              order²(order² + 1)/2 floats per vertex); wavelet: shadowed transfer in Haar wavelets over \
+              order²(order² + 1)/2 floats per vertex); glossy-interreflected: glossy plus the light of \
+              `bounces` bounces between the surfaces, which reflect it diffusely (a second, RGB matrix: \
+              3 order⁴ more floats per vertex); wavelet: shadowed transfer in Haar wavelets over \
               a cube map of the environment (all-frequency shadows; `wavelet_*`, not `order`)",
     },
     ParamSpec {
@@ -99,7 +104,8 @@ pub const PARAMS: [ParamSpec; 19] = [
         name: "bounces",
         kind: ParamKind::Int { min: 1, max: 16 },
         default: "2",
-        doc: "bounces of interreflected transfer (transfer=interreflected only)",
+        doc: "bounces of the environment's light between the surfaces (transfer=interreflected and \
+              glossy-interreflected)",
     },
     ParamSpec {
         name: "order",
@@ -179,11 +185,12 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 };
 
 fn validate(p: &ParamValues) -> Result<(), String> {
-    if p.choice("transfer") == "glossy" && p.int("order") > i64::from(MAX_GLOSSY_ORDER) {
+    if is_glossy(p.choice("transfer")) && p.int("order") > i64::from(MAX_GLOSSY_ORDER) {
         return Err(format!(
-            "transfer=glossy takes order ≤ {MAX_GLOSSY_ORDER} (order {} asked): a vertex's matrix has \
+            "transfer={} takes order ≤ {MAX_GLOSSY_ORDER} (order {} asked): a vertex's matrix has \
              order²(order² + 1)/2 floats and the precomputation keeps 64 directions' order² harmonics in \
              workgroup memory",
+            p.choice("transfer"),
             p.int("order")
         ));
     }
@@ -195,6 +202,20 @@ fn validate(p: &ParamValues) -> Result<(), String> {
         return Err(format!("wavelet_resolution must be a power of two (got {resolution})"));
     }
     Ok(())
+}
+
+/// Whether `transfer` is one of the glossy transfer matrices (glossy.wgsl).
+fn is_glossy(transfer: &str) -> bool {
+    matches!(transfer, "glossy" | "glossy-interreflected")
+}
+
+/// Directions of a glossy batch whose gathered bounce light (3 × order² floats each, glossy.wgsl's
+/// `gathered`) fits 16 KiB of workgroup memory beside the batch's harmonics (64 × order² floats): a
+/// power of two, so that rounds of it make up the batch.
+fn bounce_round(coefficients: u32) -> u32 {
+    let free = 16384 / 4 - GLOSSY_BATCH * coefficients;
+    let round = (free / (3 * coefficients)).min(GLOSSY_BATCH);
+    1 << round.ilog2()
 }
 
 /// The BRDF tables glossy transfer shades with: env-harmonics' defaults (the thesis's 32² paraboloid
@@ -219,27 +240,103 @@ struct Batch {
     order: u32,
 }
 
+/// Dispatches `pipeline` once per batch of directions (`batches`' slots) over `[x, y]` workgroups.
+fn encode_batches(
+    encoder: &mut wgpu::CommandEncoder,
+    scene_groups: &[&wgpu::BindGroup; 2],
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+    batches: &DispatchSlots,
+    [x, y]: [u32; 2],
+) {
+    let mut pass =
+        crate::gpu::dispatch::compute_pass(encoder, "transfer precomputation", pipeline, scene_groups);
+    for offset in batches.offsets() {
+        pass.set_bind_group(2, group, &[offset]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+/// The passes of transfer vectors (transfer.wgsl) into one buffer: shadowed or unshadowed transfer,
+/// then `bounces` bounces of interreflection.
+struct VectorPasses {
+    accumulate: wgpu::ComputePipeline,
+    interreflect: wgpu::ComputePipeline,
+    add_bounce: wgpu::ComputePipeline,
+    /// The passes' resources with bounce buffer 0 as the previous bounce and 1 as this one, and the
+    /// other way round.
+    groups: [wgpu::BindGroup; 2],
+    /// Interreflection's bounce increments (4 bytes each without interreflection).
+    bounce_buffers: [wgpu::Buffer; 2],
+    batches: DispatchSlots,
+    bounces: u32,
+    /// Floats per point (order² × channels).
+    floats: u32,
+}
+
+impl VectorPasses {
+    /// The vectors into `target` (the groups' binding 0), cleared first.
+    fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene_groups: &[&wgpu::BindGroup; 2],
+        target: &wgpu::Buffer,
+        points: u32,
+        max_workgroups: u32,
+    ) {
+        let [x, y, _] = workgroups_for(points, WORKGROUP, max_workgroups);
+        let [fx, fy, _] = workgroups_for(points * self.floats, WORKGROUP, max_workgroups);
+        encoder.clear_buffer(target, 0, None);
+        encode_batches(encoder, scene_groups, &self.accumulate, &self.groups[0], &self.batches, [x, y]);
+        if self.bounces > 0 {
+            // Bounce 0 (shadowed transfer, the same in every channel) is the first bounce's source.
+            encoder.copy_buffer_to_buffer(target, 0, &self.bounce_buffers[0], 0, target.size());
+        }
+        for b in 0..self.bounces as usize {
+            // Bounce b + 1 reads bounce buffer b % 2 and writes the other, then joins the sum.
+            encoder.clear_buffer(&self.bounce_buffers[(b + 1) % 2], 0, None);
+            let group = &self.groups[b % 2];
+            encode_batches(encoder, scene_groups, &self.interreflect, group, &self.batches, [x, y]);
+            let mut pass = crate::gpu::dispatch::compute_pass(
+                encoder,
+                "transfer precomputation",
+                &self.add_bounce,
+                scene_groups,
+            );
+            pass.set_bind_group(2, group, &[0]);
+            pass.dispatch_workgroups(fx, fy, 1);
+        }
+    }
+
+    fn scratch_bytes(&self) -> u64 {
+        self.bounce_buffers.iter().map(wgpu::Buffer::size).sum()
+    }
+}
+
+/// transfer=glossy-interreflected: what the glossy matrices' bounce part gathers (glossy.wgsl's
+/// GLOSSY_BOUNCE): every point's interreflected diffuse transfer of `bounces` − 1 bounces.
+struct GlossyBounce {
+    vectors: VectorPasses,
+    /// The vectors (RGB, order² × 3 floats per point).
+    reflected: wgpu::Buffer,
+    gather: wgpu::ComputePipeline,
+}
+
 /// The passes that compute a geometry's transfer.
 enum TransferPasses {
     /// Transfer vectors (transfer.wgsl).
-    Vectors {
-        accumulate: wgpu::ComputePipeline,
-        interreflect: wgpu::ComputePipeline,
-        add_bounce: wgpu::ComputePipeline,
-        /// The passes' resources with bounce buffer 0 as the previous bounce and 1 as this one, and
-        /// the other way round.
-        groups: [wgpu::BindGroup; 2],
-        /// Interreflection's bounce increments (4 bytes each without interreflection).
-        bounce_buffers: [wgpu::Buffer; 2],
-    },
+    Vectors(VectorPasses),
     /// Glossy transfer matrices (glossy.wgsl) and the transferred radiance they make of the
     /// environment's SH.
     Matrices {
         accumulate: wgpu::ComputePipeline,
         lighting: wgpu::ComputePipeline,
         group: wgpu::BindGroup,
+        batches: DispatchSlots,
         /// Order² vec4f per vertex.
         transferred: wgpu::Buffer,
+        /// transfer=glossy-interreflected.
+        bounce: Option<Box<GlossyBounce>>,
     },
     /// Wavelet transfer terms and the per-frame wavelet lighting.
     Wavelets(Box<WaveletPasses>),
@@ -249,7 +346,6 @@ enum TransferPasses {
 struct Transfer {
     buffer: wgpu::Buffer,
     passes: TransferPasses,
-    batches: DispatchSlots,
     vertices: u32,
     /// The points transfer is kept at (points.wgsl): `vertices`, or the triangles' texels.
     points: u32,
@@ -258,7 +354,8 @@ struct Transfer {
     floats_per_vertex: u32,
     /// Coefficients per colour channel of the environment's SH.
     coefficients: u32,
-    bounces: u32,
+    /// Rays per point and transfer sample of the precomputation.
+    rays_per_sample: u32,
     /// The geometry the vectors were computed for; `None` before the first frame.
     computed_for: Option<u64>,
     /// Precomputations run (not loaded from the cache).
@@ -452,13 +549,16 @@ impl Prt {
         let samples = p.int("transfer_samples") as u32;
         let count = order * order;
         let kind = p.choice("transfer");
-        let glossy = kind == "glossy";
+        let glossy = is_glossy(kind);
         // Glossy transfer reflected through the BRDF tables (not Phong lobes).
         let tabled = glossy && p.choice("glossy_lobe") == "ggx";
         let wavelets = kind == "wavelet";
         let interreflected = kind == "interreflected";
-        let channels: u32 = if interreflected { 3 } else { 1 };
-        let bounces = if interreflected { p.int("bounces") as u32 } else { 0 };
+        // Glossy matrices with a bounce part (glossy.wgsl's GLOSSY_BOUNCE), which gathers
+        // interreflected transfer vectors.
+        let glossy_bounce = kind == "glossy-interreflected";
+        let channels: u32 = if interreflected || glossy_bounce { 3 } else { 1 };
+        let bounces = if interreflected || glossy_bounce { p.int("bounces") as u32 } else { 0 };
         let resolution = p.int("wavelet_resolution") as u32;
         // More terms than the cube has coefficients is all of them.
         let terms = |name| (p.int(name) as u32).min(wavelet::cube_texels(resolution));
@@ -468,7 +568,7 @@ impl Prt {
             lighting_terms: terms("wavelet_terms"),
         };
         let floats_per_vertex = if glossy {
-            count * (count + 1) / 2
+            count * (count + 1) / 2 + if glossy_bounce { 3 * count * count } else { 0 }
         } else if wavelets {
             wavelet_settings.transfer_terms
         } else {
@@ -504,7 +604,6 @@ impl Prt {
             .then(|| EnvironmentProjection::new(setup, "prt", order, p.int("projection_bands") as u32))
             .transpose()?;
 
-        let bytes = u64::from(points.max(1)) * u64::from(floats_per_vertex) * 4;
         let lower = if wavelets { "wavelet_transfer_terms" } else { "order" };
         let too_large = |e| {
             RenderError::InvalidSettings(format!(
@@ -513,7 +612,9 @@ impl Prt {
         };
         let storage =
             |label, bytes| BufferBuilder::new(label, bytes).storage().copy().build(ctx).map_err(too_large);
-        let buffer = storage("prt transfer", bytes)?;
+        // Bytes of `floats` f32 per point.
+        let per_point = |floats: u32| u64::from(points.max(1)) * u64::from(floats) * 4;
+        let buffer = storage("prt transfer", per_point(floats_per_vertex))?;
         let defines = setup
             .gpu_scene
             .bvh_defines(Defines::new())
@@ -522,6 +623,9 @@ impl Prt {
             .u32("TRANSFER_SAMPLES", samples)
             .u32("CHANNELS", channels)
             .u32("COEFFICIENTS", count)
+            .u32("FLOATS_PER_POINT", floats_per_vertex)
+            .bool("GLOSSY_BOUNCE", glossy_bounce)
+            .u32("BOUNCE_ROUND", if glossy_bounce { bounce_round(count) } else { 1 })
             .bool("SHADOWED", kind != "unshadowed")
             .bool("SELF_TRANSFER", parts.is_some())
             .u32("NO_INSTANCE", NO_INSTANCE)
@@ -540,10 +644,13 @@ impl Prt {
         // Self-transfer's environment, turned into each instance's space (self_transfer.wgsl).
         let instance_sh = storage("prt instance sh", u64::from(instances.max(1)) * u64::from(count) * 16)?;
 
-        let batch = if glossy { GLOSSY_BATCH } else { BATCH };
-        let batch_values: Vec<Batch> =
-            (0..samples.div_ceil(batch)).map(|i| Batch { first_sample: i * batch, order }).collect();
-        let batches = DispatchSlots::new(ctx, "prt transfer batches", &batch_values);
+        // Glossy matrices add 64 directions per dispatch, transfer vectors 32.
+        let slots = |batch: u32| {
+            let values: Vec<Batch> =
+                (0..samples.div_ceil(batch)).map(|i| Batch { first_sample: i * batch, order }).collect();
+            DispatchSlots::new(ctx, "prt transfer batches", &values)
+        };
+        let batches = slots(if glossy { GLOSSY_BATCH } else { BATCH });
         let transfer_layout = compute::layout(
             ctx,
             "prt transfer",
@@ -554,42 +661,77 @@ impl Prt {
                 compute::storage_buffer_entry(3, false),
                 compute::storage_buffer_entry(4, true),
                 compute::storage_buffer_entry(5, true),
+                compute::storage_buffer_entry(6, true),
             ],
         );
-        let transfer_group = |a: &wgpu::Buffer, b: &wgpu::Buffer| {
-            compute::bind_group(
-                ctx,
-                "prt transfer",
-                &transfer_layout,
-                &[
-                    buffer.as_entire_binding(),
-                    batches.resource(),
-                    a.as_entire_binding(),
-                    b.as_entire_binding(),
-                    vertex_instances.as_entire_binding(),
-                    instance_sh.as_entire_binding(),
-                ],
-            )
+        let transfer_group =
+            |target: &wgpu::Buffer, batches: &DispatchSlots, [a, b, reflected]: [&wgpu::Buffer; 3]| {
+                compute::bind_group(
+                    ctx,
+                    "prt transfer",
+                    &transfer_layout,
+                    &[
+                        target.as_entire_binding(),
+                        batches.resource(),
+                        a.as_entire_binding(),
+                        b.as_entire_binding(),
+                        vertex_instances.as_entire_binding(),
+                        instance_sh.as_entire_binding(),
+                        reflected.as_entire_binding(),
+                    ],
+                )
+            };
+        // Bindings a pass set does not read.
+        let unused = storage("prt unused", 4)?;
+        let transfer_pipeline = |source: &str, entry: &str| {
+            compute::pipeline(ctx, "prt transfer", source, defines.clone(), entry, &layouts(&transfer_layout))
         };
-        let transfer_source = transfer_wgsl(glossy);
-        let transfer_pipeline = |entry: &str| {
-            compute::pipeline(
-                ctx,
-                "prt transfer",
-                &transfer_source,
-                defines.clone(),
-                entry,
-                &layouts(&transfer_layout),
-            )
+        let vector_source = transfer_wgsl(false);
+        // Transfer vectors into `target` with `bounces` bounces of interreflection.
+        let vector_passes = |target: &wgpu::Buffer, bounces: u32| -> Result<VectorPasses, RenderError> {
+            let batches = slots(BATCH);
+            let bounce_bytes = if bounces > 0 { per_point(count * channels) } else { 4 };
+            let bounce_buffers =
+                [storage("prt bounce a", bounce_bytes)?, storage("prt bounce b", bounce_bytes)?];
+            let [a, b] = &bounce_buffers;
+            let groups = [
+                transfer_group(target, &batches, [a, b, &unused]),
+                transfer_group(target, &batches, [b, a, &unused]),
+            ];
+            Ok(VectorPasses {
+                accumulate: transfer_pipeline(&vector_source, "accumulate")?,
+                interreflect: transfer_pipeline(&vector_source, "interreflect")?,
+                add_bounce: transfer_pipeline(&vector_source, "add_bounce")?,
+                groups,
+                bounce_buffers,
+                batches,
+                bounces,
+                floats: count * channels,
+            })
         };
+        let matrix_source = transfer_wgsl(true);
         let passes = if let Some(projection) = projection.as_ref().filter(|_| glossy) {
-            let transferred =
-                storage("prt transferred radiance", u64::from(points.max(1)) * u64::from(count) * 16)?;
+            let transferred = storage("prt transferred radiance", per_point(count * 4))?;
+            let bounce = glossy_bounce
+                .then(|| -> Result<Box<GlossyBounce>, RenderError> {
+                    let reflected = storage("prt reflected transfer", per_point(count * 3))?;
+                    Ok(Box::new(GlossyBounce {
+                        vectors: vector_passes(&reflected, bounces - 1)?,
+                        gather: transfer_pipeline(&matrix_source, "accumulate_bounce")?,
+                        reflected,
+                    }))
+                })
+                .transpose()?;
+            let reflected = bounce.as_ref().map_or(&unused, |b| &b.reflected);
+            let group =
+                transfer_group(&buffer, &batches, [&projection.coefficients, &transferred, reflected]);
             TransferPasses::Matrices {
-                accumulate: transfer_pipeline("accumulate_matrix")?,
-                lighting: transfer_pipeline("transfer_lighting")?,
-                group: transfer_group(&projection.coefficients, &transferred),
+                accumulate: transfer_pipeline(&matrix_source, "accumulate_matrix")?,
+                lighting: transfer_pipeline(&matrix_source, "transfer_lighting")?,
+                group,
+                batches,
                 transferred,
+                bounce,
             }
         } else if wavelets {
             TransferPasses::Wavelets(Box::new(WaveletPasses::new(
@@ -599,26 +741,19 @@ impl Prt {
                 &buffer,
             )?))
         } else {
-            let bounce_bytes = if interreflected { bytes } else { 4 };
-            let bounce_buffers =
-                [storage("prt bounce a", bounce_bytes)?, storage("prt bounce b", bounce_bytes)?];
-            TransferPasses::Vectors {
-                accumulate: transfer_pipeline("accumulate")?,
-                interreflect: transfer_pipeline("interreflect")?,
-                add_bounce: transfer_pipeline("add_bounce")?,
-                groups: [
-                    transfer_group(&bounce_buffers[0], &bounce_buffers[1]),
-                    transfer_group(&bounce_buffers[1], &bounce_buffers[0]),
-                ],
-                bounce_buffers,
-            }
+            TransferPasses::Vectors(vector_passes(&buffer, bounces)?)
         };
         let cache = (p.choice("transfer_cache") == "on").then(|| -> Result<TransferCache, RenderError> {
             let composed = if wavelets {
                 let defines = wavelet::wavelet_defines(setup, wavelet_settings.resolution, vertices);
                 crate::shaders::compose("prt wavelet transfer", &wavelet::wavelet_wgsl(false), &defines)?
+            } else if glossy_bounce {
+                // The bounce part gathers the vectors' passes' result.
+                let matrices = crate::shaders::compose("prt transfer", &matrix_source, &defines)?;
+                matrices + &crate::shaders::compose("prt transfer", &vector_source, &defines)?
             } else {
-                crate::shaders::compose("prt transfer", &transfer_source, &defines)?
+                let source = if glossy { &matrix_source } else { &vector_source };
+                crate::shaders::compose("prt transfer", source, &defines)?
             };
             let mut settings = vec![
                 order,
@@ -678,14 +813,14 @@ impl Prt {
             match &passes {
                 TransferPasses::Matrices { transferred, .. } => transferred.as_entire_binding(),
                 TransferPasses::Wavelets(w) => w.irradiance.as_entire_binding(),
-                TransferPasses::Vectors { .. } => buffer.as_entire_binding(),
+                TransferPasses::Vectors(_) => buffer.as_entire_binding(),
             },
         ];
         // Bindings 4 on, read-only storage, in binding order: diffuse transfer's environment SH,
         // self-transfer's vertex instances and the environment turned into each instance; glossy
         // transfer's Rx(90°) blocks and BRDF tables (through the tables), then its vertex instances.
         match (&passes, &projection) {
-            (TransferPasses::Vectors { .. }, Some(projection)) => shade_resources.extend([
+            (TransferPasses::Vectors(_), Some(projection)) => shade_resources.extend([
                 projection.coefficients.as_entire_binding(),
                 vertex_instances.as_entire_binding(),
                 instance_sh.as_entire_binding(),
@@ -726,12 +861,17 @@ impl Prt {
             transfer: Transfer {
                 buffer,
                 passes,
-                batches,
                 vertices,
                 points,
                 floats_per_vertex,
                 coefficients: count,
-                bounces,
+                // Vectors: one ray per bounce and the shadowed start; matrices: one, and the bounce
+                // part's vectors (bounces − 1 bounces and their start) and gathering.
+                rays_per_sample: if glossy {
+                    1 + if glossy_bounce { bounces + 1 } else { 0 }
+                } else {
+                    1 + bounces
+                },
                 computed_for: None,
                 precomputations: 0,
                 cache,
@@ -783,64 +923,30 @@ impl Prt {
         t.precomputations += 1;
         let groups = [&fc.gpu_scene.bind_group, &fc.frame.bind_group];
         let max = self.max_workgroups;
-        let [x, y, _] = workgroups_for(t.points, WORKGROUP, max);
-        let [fx, fy, _] = workgroups_for(t.points * t.floats_per_vertex, WORKGROUP, max);
-        let batches = &t.batches;
-        // A bounce's (or the matrices') directions, batch by batch, over `[x, y]` workgroups.
-        let directions =
-            |encoder: &mut wgpu::CommandEncoder, pipeline, group: &wgpu::BindGroup, [x, y]: [u32; 2]| {
-                let mut pass =
-                    crate::gpu::dispatch::compute_pass(encoder, "transfer precomputation", pipeline, &groups);
-                for offset in batches.offsets() {
-                    pass.set_bind_group(2, group, &[offset]);
-                    pass.dispatch_workgroups(x, y, 1);
+        profiler.pass(fc.ctx, "transfer precomputation", |encoder| match &t.passes {
+            TransferPasses::Wavelets(w) => {
+                encoder.clear_buffer(&t.buffer, 0, None);
+                let mut pass = crate::gpu::dispatch::compute_pass(
+                    encoder,
+                    "transfer precomputation",
+                    &w.visibility,
+                    &groups,
+                );
+                w.encode_precompute(&mut pass);
+            }
+            TransferPasses::Matrices { accumulate, group, batches, bounce, .. } => {
+                if let Some(b) = bounce {
+                    b.vectors.encode(encoder, &groups, &b.reflected, t.points, max);
                 }
-            };
-        profiler.pass(fc.ctx, "transfer precomputation", |encoder| {
-            encoder.clear_buffer(&t.buffer, 0, None);
-            match &t.passes {
-                TransferPasses::Wavelets(w) => {
-                    let mut pass = crate::gpu::dispatch::compute_pass(
-                        encoder,
-                        "transfer precomputation",
-                        &w.visibility,
-                        &groups,
-                    );
-                    w.encode_precompute(&mut pass);
-                }
-                TransferPasses::Matrices { accumulate, group, .. } => {
-                    // A workgroup per vertex.
-                    let [gx, gy, _] = workgroups_for(t.points * GLOSSY_BATCH, GLOSSY_BATCH, max);
-                    directions(encoder, accumulate, group, [gx, gy]);
-                }
-                TransferPasses::Vectors {
-                    accumulate,
-                    interreflect,
-                    add_bounce,
-                    groups: sets,
-                    bounce_buffers,
-                } => {
-                    directions(encoder, accumulate, &sets[0], [x, y]);
-                    if t.bounces > 0 {
-                        // Bounce 0 (shadowed transfer, the same in every channel) is the first bounce's
-                        // source.
-                        encoder.copy_buffer_to_buffer(&t.buffer, 0, &bounce_buffers[0], 0, t.buffer.size());
-                    }
-                    for b in 0..t.bounces as usize {
-                        // Bounce b + 1 reads bounce buffer b % 2 and writes the other, then joins the sum.
-                        encoder.clear_buffer(&bounce_buffers[(b + 1) % 2], 0, None);
-                        directions(encoder, interreflect, &sets[b % 2], [x, y]);
-                        let mut pass = crate::gpu::dispatch::compute_pass(
-                            encoder,
-                            "transfer precomputation",
-                            add_bounce,
-                            &groups,
-                        );
-                        pass.set_bind_group(2, &sets[b % 2], &[0]);
-                        pass.dispatch_workgroups(fx, fy, 1);
-                    }
+                encoder.clear_buffer(&t.buffer, 0, None);
+                // A workgroup per vertex.
+                let [x, y, _] = workgroups_for(t.points * GLOSSY_BATCH, GLOSSY_BATCH, max);
+                encode_batches(encoder, &groups, accumulate, group, batches, [x, y]);
+                if let Some(b) = bounce {
+                    encode_batches(encoder, &groups, &b.gather, group, batches, [x, y]);
                 }
             }
+            TransferPasses::Vectors(v) => v.encode(encoder, &groups, &t.buffer, t.points, max),
         })?;
         Ok(true)
     }
@@ -882,6 +988,7 @@ fn transfer_wgsl(glossy: bool) -> String {
 /// diffuse, glossy or wavelet environment light.
 fn shade_wgsl(transfer: &str, glossy_lobe: &str) -> String {
     let shade = format!("{}\n{}", include_str!("points.wgsl"), include_str!("shade.wgsl"));
+    let transfer = if is_glossy(transfer) { "glossy" } else { transfer };
     match (transfer, glossy_lobe) {
         ("glossy", "phong") => {
             let (glossy, phong) =
@@ -969,20 +1076,27 @@ impl Technique for Prt {
                     _ => {
                         f64::from(self.transfer.points)
                             * f64::from(self.samples)
-                            * f64::from(1 + self.transfer.bounces)
+                            * f64::from(self.transfer.rays_per_sample)
                     }
                 },
             ),
             // The direct pass's target and the output, both f32 RGBA.
             ("output_bytes_per_pixel".to_string(), 32.0),
         ]);
+        // Buffers the precomputation alone uses (interreflection's bounces, the vectors glossy bounces
+        // gather).
+        let mut scratch = 0;
         match &self.transfer.passes {
-            TransferPasses::Matrices { transferred, .. } => {
+            TransferPasses::Matrices { transferred, bounce, .. } => {
                 counters.insert("transferred_radiance_bytes".to_string(), transferred.size() as f64);
+                if let Some(b) = bounce {
+                    scratch = b.reflected.size() + b.vectors.scratch_bytes();
+                }
             }
             TransferPasses::Wavelets(w) => counters.extend(w.counters()),
-            TransferPasses::Vectors { .. } => {}
+            TransferPasses::Vectors(v) => scratch = v.scratch_bytes(),
         }
+        counters.insert("transfer_scratch_bytes".to_string(), scratch as f64);
         if let Some(tables) = &self.tables {
             counters.insert("brdf_table_bytes".to_string(), tables.shape.bytes() as f64);
         }
@@ -1002,16 +1116,22 @@ impl Technique for Prt {
             "prt: wavelet transfer is diffuse and shadowed (specular lobes get no environment light, \
              there are no interreflections); back faces get no environment light"
                 .into()
-        } else if matches!(self.transfer.passes, TransferPasses::Matrices { .. }) {
+        } else if let TransferPasses::Matrices { bounce, .. } = &self.transfer.passes {
             format!(
                 "prt: glossy transfer carries the environment's light in {} SH bands, too few for sharp \
-                 reflections (low roughness is blurred){}; back faces get no environment light",
+                 reflections (low roughness is blurred){}{}; back faces get no environment light",
                 self.projection.as_ref().map_or(0, |p| p.coefficient_count().isqrt()),
                 if self.tables.is_some() {
                     ""
                 } else {
                     "; Phong lobes about the mirror direction stand in for GGX (no off-specular peak, \
                      Fresnel taken at the view angle)"
+                },
+                if bounce.is_some() {
+                    "; the surfaces light bounces off reflect it diffusely (their specular lobes pass no \
+                     light on)"
+                } else {
+                    ""
                 }
             )
         } else {
