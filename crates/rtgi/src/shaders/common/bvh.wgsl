@@ -381,7 +381,12 @@ fn bvh_leaf_rest(leaf: u32) -> u32 {
 
 // Closest hit with tmin < t < tmax (see the contract above).
 fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
-    let world = bvh_ray(ray);
+    return trace_closest_from(ray, bvh_ray(ray), 0u, tmin, tmax);
+}
+
+// trace_closest within the part of the BVH under node reference `start`, as trace_any_from.
+fn trace_closest_from(ray: Ray, start_ray: BvhRay, start: u32, tmin: f32, tmax: f32) -> Hit {
+    let world = start_ray;
     var r = world;
     // The stack depth at which the current instance was entered: entries below it are world space
     // (0 in world space, where no entry lies below).
@@ -389,8 +394,7 @@ fn trace_closest(ray: Ray, tmin: f32, tmax: f32) -> Hit {
     var hit = Hit(FLT_MAX, BVH_NO_HIT, 0.0, 0.0);
     var t_best = tmax;
     var sp = 0u;
-    // The root, node 0.
-    var current = 0u;
+    var current = start;
     var have_current = true;
     // One flat loop (no nested descent loop): on a SIMD CPU driver all lanes of a batch then step
     // together through nodes and leaves alike.

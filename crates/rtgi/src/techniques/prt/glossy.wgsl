@@ -21,7 +21,7 @@
 // bounces, as interreflected diffuse transfer does. It is estimated over M's directions and kept after
 // M's pairs, entry (i · order² + j) · 3 + c of the point's FLOATS_PER_POINT floats.
 //
-// SELF_TRANSFER: each point's matrix is of its rigid part alone, in the part's space (parts.wgsl), and
+// SELF_TRANSFER: each point's matrices are of its rigid part alone, in the part's space (parts.wgsl), and
 // maps the environment turned into that space (self_transfer.wgsl) to transferred radiance in that
 // space; shade_glossy.wgsl turns the pixel's normal and view into it.
 
@@ -131,19 +131,14 @@ fn accumulate_bounce(
     let count = batch.order * batch.order;
     let b = batch_direction(vertex, lane);
     let d = b.direction;
-    // Whether the direction meets a front face, where, and the reflectance over π there.
-    var lit = false;
-    var at: TrianglePoint;
-    var scale = vec3f(0.0);
+    // Where the direction meets a front face, and its reflectance there.
+    var source = BounceSource();
     if b.valid {
-        let hit = trace_closest(Ray(b.frame.origin, d), 0.0, FLT_MAX);
-        if hit_found(hit) && !hits_back_face(hit.triangle, hit.u, hit.v, d) {
-            let q = surface_at(hit.triangle, hit.u, hit.v, d);
-            scale = brdf_lobe_weights(q.material, saturate(dot(q.normal, -d))).diffuse / PI;
-            at = triangle_point(hit.triangle, hit.u, hit.v);
-            lit = true;
-        }
+        source = bounce_source(b.frame, d);
     }
+    let lit = source.found;
+    let at = source.at;
+    let scale = source.reflectance / PI;
     for (var k = 0u; k < count; k++) {
         harmonics[lane * count + k] = select(0.0, sh_one(k, d), lit);
     }

@@ -19,12 +19,12 @@
 //! Per-vertex transfer is only as fine as the mesh: a wall of two triangles gets the transfer of its
 //! corners, so shadows need tessellated meshes (as in the paper), or per-texel transfer
 //! (`texels_per_edge`: every triangle's own patch of texels, points.wgsl). Moving meshes get self-transfer
-//! (`moving_transfer=self`, shadowed, unshadowed and glossy transfer): each rigid part's transfer of
-//! its own geometry, in its own space (parts.wgsl), lit by the environment turned into that space
-//! (self_transfer.wgsl); glossy transfer's radiance stays in the part's space and is shaded with the
-//! pixel's normal and view turned into it. Not built yet: a UV-unwrapped lightmap atlas, light
-//! bounced off glossy surfaces' specular lobes (interreflection reflects diffusely), self-transfer for
-//! interreflected and wavelet transfer.
+//! (`moving_transfer=self`, every SH transfer): each rigid part's transfer of its own geometry
+//! (interreflections between its own surfaces included), in its own space (parts.wgsl), lit by the
+//! environment turned into that space (self_transfer.wgsl); glossy transfer's radiance stays in the
+//! part's space and is shaded with the pixel's normal and view turned into it. Not built yet: a
+//! UV-unwrapped lightmap atlas, light bounced off glossy surfaces' specular lobes (interreflection
+//! reflects diffusely), self-transfer for wavelet transfer.
 
 use crate::frame::OUTPUT_FORMAT;
 use crate::gpu::dispatch::workgroups_for;
@@ -154,12 +154,13 @@ pub const PARAMS: [ParamSpec; 19] = [
         name: "moving_transfer",
         kind: ParamKind::Choice(&["self", "recompute"]),
         default: "self",
-        doc: "scenes with moving meshes, shadowed, unshadowed and glossy transfer. self: each rigid part's transfer \
-              of its own geometry alone, in its own space, precomputed once: a moving mesh shadows only \
-              itself and turns its transfer with it (the environment's SH is turned into its space when it \
-              or the environment moves), the static meshes shadow only each other; recompute: every \
-              vertex's transfer from the whole scene as posed, again in every frame in which a mesh moved \
-              (the other transfers always recompute)",
+        doc: "scenes with moving meshes, SH transfer (not wavelet). self: each rigid part's transfer of its \
+              own geometry alone, in its own space, precomputed once: a moving mesh shadows only itself \
+              (and interreflected transfer bounces light between its own surfaces only) and turns its \
+              transfer with it (the environment's SH is turned into its space when it or the environment \
+              moves), the static meshes shadow (and light) only each other; recompute: every vertex's \
+              transfer from the whole scene as posed, again in every frame in which a mesh moved \
+              (wavelet transfer always recomputes)",
     },
     ParamSpec {
         name: "transfer_cache",
@@ -591,8 +592,7 @@ impl Prt {
         };
 
         // Transfer per rigid part (transfer.wgsl's SELF_TRANSFER) when meshes may move.
-        let parts = (matches!(kind, "shadowed" | "unshadowed" | "glossy")
-            && p.choice("moving_transfer") == "self")
+        let parts = (!wavelets && p.choice("moving_transfer") == "self")
             .then(|| setup.gpu_scene.bvh_parts(vertices as usize))
             .flatten();
         let instances =
@@ -1145,8 +1145,8 @@ impl Technique for Prt {
         if self.self_transfer.is_some() {
             warnings.push(
                 "prt: the scene has moving meshes; their transfer is self-transfer (moving_transfer=self): \
-                 each moving mesh shadows only itself, the static meshes only each other, and no shadow \
-                 passes between a moving mesh and the rest"
+                 each moving mesh shadows (and interreflects light onto) only itself, the static meshes only \
+                 each other, and no shadow or bounced light passes between a moving mesh and the rest"
                     .into(),
             );
         } else if self.moving_meshes {

@@ -519,7 +519,9 @@ fn moving_meshes_are_warned_of() {
 /// space), up to the Monte Carlo difference of their transfer directions, while the tumble itself
 /// changes the image far more. The move costs no precomputation. Shadowed transfer vectors and glossy
 /// transfer matrices (whose transferred radiance is in the knot's space, and is shaded with the
-/// pixel's normal and view turned into it).
+/// pixel's normal and view turned into it), and glossy-interreflected transfer (light bounced between
+/// the knot's own surfaces, whose hits are shaded in world space, where the vertex buffer has them as
+/// posed).
 #[test]
 fn self_transfer_turns_with_its_mesh() {
     let source =
@@ -528,11 +530,17 @@ fn self_transfer_turns_with_its_mesh() {
     assert_eq!(moving, [false, false, true], "the knot alone moves");
     // Measured: shadowed 0.0002 against a tumble of 0.0470 (0.0345 with the knot's sky turned the
     // wrong way); glossy 0.0002 against 0.0478 (0.0431 with the pixels' normal and view left in world
-    // space).
-    for (transfer, samples, bound) in [("shadowed", "512", 0.0005), ("glossy", "512", 0.0005)] {
+    // space); glossy-interreflected (order 2, its bounce matrices and the vectors they gather both
+    // self-transfer) 0.0002 against 0.0359, and 0.0002 precomputed after the move (0.0011 with the
+    // bounce hits shaded with the ray's direction in the knot's space instead of the world's).
+    for (transfer, order, samples, bound) in [
+        ("shadowed", "4", "512", 0.0005),
+        ("glossy", "4", "512", 0.0005),
+        ("glossy-interreflected", "2", "256", 0.0005),
+    ] {
         let p = params(&[
             ("transfer", transfer),
-            ("order", "4"),
+            ("order", order),
             ("transfer_samples", samples),
             ("transfer_cache", "off"),
         ]);
@@ -558,6 +566,14 @@ fn self_transfer_turns_with_its_mesh() {
         );
         assert!(tumble > 0.02, "{transfer}: the tumble is too small to test: {tumble}");
         assert!(difference < bound, "{transfer}: turned {difference} against the tumble's {tumble}");
+        if transfer.contains("interreflected") {
+            // Transfer precomputed with the knot away from the pose it was uploaded in: its bounce rays
+            // run in the upload's space and their hits are shaded in world space.
+            let mut late_prt = Prt::new(&f.setup(&p)).expect("prt");
+            let late = mean_relative_difference(&f.render_rgb(&mut late_prt, 1), &fresh);
+            eprintln!("{transfer}: self-transfer precomputed after the move against a fresh one: {late:.4}");
+            assert!(late < bound, "{transfer}: precomputed after the move {late}");
+        }
     }
 }
 

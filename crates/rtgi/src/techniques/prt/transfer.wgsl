@@ -14,8 +14,8 @@
 // the others 1). Back faces (hit against their normals) pass nothing on: transfer is for the side the
 // normals point to. Layout: transfer[(vertex · order² + k) · CHANNELS + channel].
 //
-// SELF_TRANSFER: transfer per rigid part (parts.wgsl); shade_diffuse.wgsl lights it with the
-// environment turned into the part's space.
+// SELF_TRANSFER: transfer per rigid part (parts.wgsl), interreflected between the part's own surfaces;
+// shade_diffuse.wgsl lights it with the environment turned into the part's space.
 
 #import common/scene.wgsl
 #import common/hsh.wgsl
@@ -85,30 +85,24 @@ fn interreflect(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroup
     if point >= POINT_COUNT {
         return;
     }
-    // Interreflection sees the whole scene (no self-transfer).
-    let p = point_surface(point);
-    let n = p.normal;
-    let origin = offset_origin(p.position, n);
+    // The point's part alone with SELF_TRANSFER (parts.wgsl).
+    let f = transfer_frame(point);
     let count = batch.order * batch.order;
     for (var s = 0u; s < BATCH; s++) {
         let sample = batch.first_sample + s;
         if sample >= TRANSFER_SAMPLES {
             break;
         }
-        let d = transfer_direction(p.seed, sample, n);
-        let hit = trace_closest(Ray(origin, d), 0.0, FLT_MAX);
-        if !hit_found(hit) || hits_back_face(hit.triangle, hit.u, hit.v, d) {
+        let source = bounce_source(f, transfer_direction(f.seed, sample, f.normal));
+        if !source.found {
             continue;
         }
-        let q = surface_at(hit.triangle, hit.u, hit.v, d);
-        let reflectance = brdf_lobe_weights(q.material, saturate(dot(q.normal, -d))).diffuse;
-        let at = triangle_point(hit.triangle, hit.u, hit.v);
-        let w = at.weights;
-        let scale = reflectance / f32(TRANSFER_SAMPLES);
+        let w = source.at.weights;
+        let v = source.at.vertices;
+        let scale = source.reflectance / f32(TRANSFER_SAMPLES);
         for (var k = 0u; k < count; k++) {
-            let t = w.x * previous_transfer(at.vertices.x, k, count)
-                + w.y * previous_transfer(at.vertices.y, k, count)
-                + w.z * previous_transfer(at.vertices.z, k, count);
+            let t = w.x * previous_transfer(v.x, k, count) + w.y * previous_transfer(v.y, k, count)
+                + w.z * previous_transfer(v.z, k, count);
             let i = (point * count + k) * 3u;
             this_bounce[i] += scale.r * t.r;
             this_bounce[i + 1u] += scale.g * t.g;
