@@ -48,7 +48,9 @@ def main():
         "The `glossy` cells do the same with glossy transfer matrices (`transfer=glossy`, shaded through the "
         "BRDF tables), whose transferred radiance is lit again whenever the knot turns or the matrices change "
         "(relight: that pass); with self-transfer it stays in the knot's space and the pixels' normal and "
-        "view are turned into it. "
+        "view are turned into it. The `interreflected` cells add 2 bounces of light between the surfaces "
+        "(`transfer=interreflected`, RGB vectors), with self-transfer between a part's own surfaces only, so "
+        "they are measured against the full-GI reference alone. "
         "ms/frame: the whole frame's GPU time; × direct: over direct's"
         + (". On lavapipe: compare cells with each other, not with GPU figures." if cpu else "."), "",
     ]
