@@ -6,8 +6,8 @@
 //! per channel (transfer.wgsl); or a glossy transfer matrix (`transfer=glossy`), the SH operator
 //! that turns the environment's radiance into the vertex's self-shadowed incident radiance
 //! (glossy.wgsl), with a second, RGB matrix for the light of `bounces` bounces off the other surfaces
-//! (`transfer=glossy-interreflected`, which gathers interreflected transfer vectors). The environment is projected into SH on the GPU and turned with it (the shared
-//! `env_projection`). Per frame, diffuse transfer gives every pixel's irradiance as the dot product
+//! (`transfer=glossy-interreflected`, which gathers interreflected transfer vectors). The environment
+//! is projected into SH on the GPU and turned with it (the shared `env_projection`). Per frame, diffuse transfer gives every pixel's irradiance as the dot product
 //! of its vertices' interpolated transfer with the environment's SH (shade_diffuse.wgsl); glossy
 //! transfer multiplies every vertex's matrix with the environment's SH when either changes, then
 //! integrates the interpolated result against the whole BRDF in the view direction through the SH
@@ -687,9 +687,12 @@ impl Prt {
             compute::pipeline(ctx, "prt transfer", source, defines.clone(), entry, &layouts(&transfer_layout))
         };
         let vector_source = transfer_wgsl(false);
-        // Transfer vectors into `target` with `bounces` bounces of interreflection.
-        let vector_passes = |target: &wgpu::Buffer, bounces: u32| -> Result<VectorPasses, RenderError> {
-            let batches = slots(BATCH);
+        // Transfer vectors into `target` with `bounces` bounces of interreflection, dispatched by
+        // `batches` (slots of BATCH directions).
+        let vector_passes = |target: &wgpu::Buffer,
+                             bounces: u32,
+                             batches: DispatchSlots|
+         -> Result<VectorPasses, RenderError> {
             let bounce_bytes = if bounces > 0 { per_point(count * channels) } else { 4 };
             let bounce_buffers =
                 [storage("prt bounce a", bounce_bytes)?, storage("prt bounce b", bounce_bytes)?];
@@ -716,7 +719,7 @@ impl Prt {
                 .then(|| -> Result<Box<GlossyBounce>, RenderError> {
                     let reflected = storage("prt reflected transfer", per_point(count * 3))?;
                     Ok(Box::new(GlossyBounce {
-                        vectors: vector_passes(&reflected, bounces - 1)?,
+                        vectors: vector_passes(&reflected, bounces - 1, slots(BATCH))?,
                         gather: transfer_pipeline(&matrix_source, "accumulate_bounce")?,
                         reflected,
                     }))
@@ -741,7 +744,7 @@ impl Prt {
                 &buffer,
             )?))
         } else {
-            TransferPasses::Vectors(vector_passes(&buffer, bounces)?)
+            TransferPasses::Vectors(vector_passes(&buffer, bounces, batches)?)
         };
         let cache = (p.choice("transfer_cache") == "on").then(|| -> Result<TransferCache, RenderError> {
             let composed = if wavelets {

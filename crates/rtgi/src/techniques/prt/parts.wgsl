@@ -1,7 +1,7 @@
 // Transfer per rigid part (SELF_TRANSFER: scenes with moving meshes, moving_transfer=self), composed
-// before the precomputations (transfer.wgsl, glossy.wgsl), interreflection included (light bounces
-// between the surfaces of a part only): every point's transfer is that of its rigid
-// part alone, in the part's own space: a moving mesh's points see only their own mesh (its instance's
+// before the precomputations (transfer.wgsl, glossy.wgsl): every point's transfer is that of its rigid
+// part alone (interreflected light too bounces between the part's own surfaces only), in the part's
+// own space: a moving mesh's points see only their own mesh (its instance's
 // bottom level, in the space it was uploaded in), the static meshes' see only the static meshes (in
 // world space). Such transfer stays true however the part moves, turned with it: the environment is
 // turned into the part's space to light it (self_transfer.wgsl).
